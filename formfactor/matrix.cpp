@@ -1,0 +1,72 @@
+#include "formfactor/matrix.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/combinable.h>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+#include <tbb/parallel_for.h>
+
+#include <atomic>
+#include <chrono>
+
+namespace radlab {
+
+FormFactorMatrix::FormFactorMatrix(size_t n, Precision precision) : n_(n), precision_(precision) {
+  if (precision == Precision::kFloat)
+    f32_.assign(n * n, 0.0f);
+  else
+    f64_.assign(n * n, 0.0);
+}
+
+size_t FormFactorMatrix::bytes() const {
+  return f32_.size() * sizeof(float) + f64_.size() * sizeof(double);
+}
+
+void FormFactorMatrix::set_row(size_t i, std::span<const double> values) {
+  if (precision_ == Precision::kFloat) {
+    float* r = row_f32(i);
+    for (size_t j = 0; j < n_; ++j) r[j] = float(values[j]);
+  } else {
+    std::copy(values.begin(), values.end(), row_f64(i));
+  }
+}
+
+FormFactorMatrix build_matrix(const FormFactorMethod& method, size_t n, Precision precision,
+                              BuildReport& report,
+                              const std::function<void(size_t, size_t)>& progress) {
+  const auto start = std::chrono::steady_clock::now();
+  FormFactorMatrix matrix(n, precision);
+  tbb::combinable<RowCost> costs;
+  std::atomic<size_t> done{0};
+  std::atomic<int> last_reported{-1};
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1), [&](const tbb::blocked_range<size_t>& r) {
+    thread_local std::vector<double> row;
+    row.resize(n);
+    for (size_t i = r.begin(); i != r.end(); ++i) {
+      method.row(i, row, costs.local());
+      matrix.set_row(i, row);
+      size_t now = ++done;
+      // Report at most ~200 times; only one thread reports a given percentage step.
+      int step = int(200 * now / std::max<size_t>(n, 1));
+      int seen = last_reported.load();
+      if (progress && step > seen && last_reported.compare_exchange_strong(seen, step))
+        progress(now, n);
+    }
+  });
+  report.cost = costs.combine([](RowCost a, const RowCost& b) { return a += b; });
+  report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  report.threads = int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+  return matrix;
+}
+
+void symmetrise(FormFactorMatrix& m, std::span<const double> area) {
+  const size_t n = m.size();
+  for (size_t i = 0; i < n; ++i)
+    for (size_t j = i + 1; j < n; ++j) {
+      const double g = 0.5 * (area[i] * m.at(i, j) + area[j] * m.at(j, i));
+      m.set(i, j, g / area[i]);
+      m.set(j, i, g / area[j]);
+    }
+}
+
+}  // namespace radlab

@@ -1,0 +1,100 @@
+#include "formfactor/quadrature.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <glm/geometric.hpp>
+#include <mutex>
+#include <numbers>
+
+namespace radlab {
+namespace {
+
+struct Rule {
+  std::vector<double> nodes, weights;
+};
+
+// Newton iteration on the Legendre polynomial, nodes mapped to [0,1].
+Rule compute_rule(int order) {
+  Rule rule;
+  const int n = order;
+  for (int i = 0; i < n; ++i) {
+    double x = std::cos(std::numbers::pi * (i + 0.75) / (n + 0.5));
+    double dp = 0.0;
+    for (int iteration = 0; iteration < 100; ++iteration) {
+      double p0 = 1.0, p1 = x;
+      for (int k = 2; k <= n; ++k) {
+        double pk = ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k;
+        p0 = p1;
+        p1 = pk;
+      }
+      dp = n * (x * p1 - p0) / (x * x - 1.0);
+      double dx = p1 / dp;
+      x -= dx;
+      if (std::abs(dx) < 1e-16) break;
+    }
+    rule.nodes.push_back(0.5 * (1.0 - x));
+    rule.weights.push_back(1.0 / ((1.0 - x * x) * dp * dp));  // (2/((1-x^2)p'^2)) / 2
+  }
+  return rule;
+}
+
+const Rule& cached_rule(int order) {
+  static std::array<Rule, 33> rules;
+  static std::once_flag once;
+  std::call_once(once, [] {
+    for (int k = 1; k <= 32; ++k) rules[size_t(k)] = compute_rule(k);
+  });
+  return rules[size_t(std::clamp(order, 1, 32))];
+}
+
+void triangle_rule(const Vec3& p0, const Vec3& p1, const Vec3& p2, double area_fraction,
+                   const Rule& rule, std::vector<QuadraturePoint>& out) {
+  // x(u, v) = p0 + u (p1 - p0) + u v (p2 - p1), Jacobian 2A u: the collapsed square.
+  const size_t n = rule.nodes.size();
+  for (size_t a = 0; a < n; ++a)
+    for (size_t b = 0; b < n; ++b) {
+      double u = rule.nodes[a], v = rule.nodes[b];
+      Vec3 x = p0 + u * (p1 - p0) + u * v * (p2 - p1);
+      out.push_back({x, area_fraction * 2.0 * u * rule.weights[a] * rule.weights[b]});
+    }
+}
+
+}  // namespace
+
+void gauss_legendre_unit(int order, std::vector<double>& nodes, std::vector<double>& weights) {
+  const Rule& rule = cached_rule(order);
+  nodes = rule.nodes;
+  weights = rule.weights;
+}
+
+void element_quadrature(std::span<const Vec3> c, int order, std::vector<QuadraturePoint>& out) {
+  out.clear();
+  const Rule& rule = cached_rule(order);
+  const size_t n = rule.nodes.size();
+  if (c.size() == 4) {
+    // Bilinear map of the unit square; weight = |dx/ds x dx/dt| / area.
+    const Vec3 total = glm::cross(c[2] - c[0], c[3] - c[1]);  // 2 x vector area
+    const double area2 = glm::length(total);
+    for (size_t a = 0; a < n; ++a)
+      for (size_t b = 0; b < n; ++b) {
+        double s = rule.nodes[a], t = rule.nodes[b];
+        Vec3 x = (1 - s) * (1 - t) * c[0] + s * (1 - t) * c[1] + s * t * c[2] + (1 - s) * t * c[3];
+        Vec3 ds = (1 - t) * (c[1] - c[0]) + t * (c[2] - c[3]);
+        Vec3 dt = (1 - s) * (c[3] - c[0]) + s * (c[2] - c[1]);
+        double jacobian = glm::length(glm::cross(ds, dt));
+        out.push_back({x, 2.0 * jacobian / area2 * rule.weights[a] * rule.weights[b]});
+      }
+    return;
+  }
+  // Triangles and fans: split the weight by each triangle's share of the area.
+  double total = 0.0;
+  for (size_t k = 1; k + 1 < c.size(); ++k)
+    total += 0.5 * glm::length(glm::cross(c[k] - c[0], c[k + 1] - c[0]));
+  for (size_t k = 1; k + 1 < c.size(); ++k) {
+    double a = 0.5 * glm::length(glm::cross(c[k] - c[0], c[k + 1] - c[0]));
+    triangle_rule(c[0], c[k], c[k + 1], a / total, rule, out);
+  }
+}
+
+}  // namespace radlab

@@ -1,0 +1,25 @@
+// Quadrature rules over elements: Gauss–Legendre tensor rules mapped onto quads (bilinearly) and
+// triangles (collapsed square, Duffy), with weights that sum to 1 (fractions of the element's
+// area). Used to integrate the point-to-polygon form factor over the receiving point.
+#pragma once
+
+#include <span>
+#include <vector>
+
+#include "scene/scene.h"
+
+namespace radlab {
+
+struct QuadraturePoint {
+  Vec3 position;
+  double weight;  // fraction of the element's area; the weights of a rule sum to 1
+};
+
+// Gauss–Legendre nodes and weights on [0,1] for `order` points (1..32).
+void gauss_legendre_unit(int order, std::vector<double>& nodes, std::vector<double>& weights);
+
+// An order x order rule over a triangle, quad, or convex n-gon (a fan of triangles).
+void element_quadrature(std::span<const Vec3> corners, int order,
+                        std::vector<QuadraturePoint>& out);
+
+}  // namespace radlab

@@ -1,0 +1,32 @@
+#include "scene/scene_loader.h"
+
+#include <filesystem>
+
+#include "core/error.h"
+#include "core/text.h"
+#include "scene/builtin_scenes.h"
+#include "scene/obj_reader.h"
+
+namespace radlab {
+
+LoadedScene load_scene(const std::string& spec, bool print) {
+  LoadedScene loaded;
+  if (text::starts_with(spec, "builtin:")) {
+    loaded.scene = make_builtin_scene(spec.substr(8));
+  } else {
+    const std::string extension = text::to_lower(std::filesystem::path(spec).extension().string());
+    if (!std::filesystem::exists(spec)) throw InputError(spec + ": no such file");
+    if (extension == ".obj") {
+      loaded.scene = read_obj(spec);
+    } else {
+      throw InputError(spec + ": unsupported scene format '" + extension +
+                       "' (radlab reads .obj with .mtl, or builtin:NAME; see `radlab scenes`)");
+    }
+    loaded.scene.name = spec;
+  }
+  loaded.report = validate_scene(loaded.scene);
+  if (print) print_warnings(loaded.report);
+  return loaded;
+}
+
+}  // namespace radlab

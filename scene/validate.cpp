@@ -1,0 +1,162 @@
+#include "scene/validate.h"
+
+#include <cmath>
+#include <glm/geometric.hpp>
+
+#include "core/error.h"
+#include "core/log.h"
+#include "scene/geometry.h"
+
+namespace radlab {
+namespace {
+
+void check_material(const Material& m) {
+  for (int c = 0; c < 3; ++c) {
+    double rho = m.reflectance[c];
+    if (!(rho >= 0.0 && rho <= 1.0))  // also rejects NaN
+      throw InputError("material '" + m.name + "': reflectance must lie in [0,1] in every channel" +
+                       ", got " + std::to_string(rho) + " in channel " + "rgb"[c]);
+    double e = m.emission[c];
+    if (!(e >= 0.0) || std::isinf(e))
+      throw InputError("material '" + m.name + "': emission must be finite and >= 0, got " +
+                       std::to_string(e) + " in channel " + "rgb"[c]);
+  }
+}
+
+std::vector<Vec3> merge_repeated(const std::vector<Vec3>& v) {
+  double scale = geometry::diameter(v);
+  std::vector<Vec3> out;
+  for (const Vec3& p : v)
+    if (out.empty() || glm::distance(out.back(), p) > 1e-12 * scale) out.push_back(p);
+  while (out.size() > 1 && glm::distance(out.front(), out.back()) <= 1e-12 * scale) out.pop_back();
+  return out;
+}
+
+// Ear clipping in the polygon's own plane; for non-convex planar polygons.
+std::vector<std::vector<Vec3>> ear_clip(const std::vector<Vec3>& v) {
+  Vec3 n = geometry::unit_normal(v);
+  std::vector<size_t> idx(v.size());
+  for (size_t i = 0; i < v.size(); ++i) idx[i] = i;
+  std::vector<std::vector<Vec3>> triangles;
+  auto turn = [&](const Vec3& a, const Vec3& b, const Vec3& c) {
+    return glm::dot(glm::cross(b - a, c - b), n);
+  };
+  auto inside = [&](const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+    return turn(a, b, p) >= 0 && turn(b, c, p) >= 0 && turn(c, a, p) >= 0;
+  };
+  size_t guard = 0;
+  while (idx.size() > 3 && guard++ < 10 * v.size() * v.size()) {
+    bool clipped = false;
+    for (size_t k = 0; k < idx.size(); ++k) {
+      size_t ia = idx[(k + idx.size() - 1) % idx.size()], ib = idx[k], ic = idx[(k + 1) % idx.size()];
+      if (turn(v[ia], v[ib], v[ic]) <= 0) continue;
+      bool ear = true;
+      for (size_t m : idx)
+        if (m != ia && m != ib && m != ic && inside(v[m], v[ia], v[ib], v[ic])) {
+          ear = false;
+          break;
+        }
+      if (!ear) continue;
+      triangles.push_back({v[ia], v[ib], v[ic]});
+      idx.erase(idx.begin() + long(k));
+      clipped = true;
+      break;
+    }
+    if (!clipped) break;  // self-intersecting: give up on the rest
+  }
+  if (idx.size() == 3) triangles.push_back({v[idx[0]], v[idx[1]], v[idx[2]]});
+  return triangles;
+}
+
+// Splits a non-planar polygon into triangles; a quad along its shorter diagonal.
+std::vector<std::vector<Vec3>> split_non_planar(const std::vector<Vec3>& v) {
+  std::vector<std::vector<Vec3>> out;
+  if (v.size() == 4) {
+    if (glm::distance(v[0], v[2]) <= glm::distance(v[1], v[3])) {
+      out.push_back({v[0], v[1], v[2]});
+      out.push_back({v[0], v[2], v[3]});
+    } else {
+      out.push_back({v[0], v[1], v[3]});
+      out.push_back({v[1], v[2], v[3]});
+    }
+    return out;
+  }
+  for (size_t i = 1; i + 1 < v.size(); ++i) out.push_back({v[0], v[i], v[i + 1]});
+  return out;
+}
+
+bool degenerate(const std::vector<Vec3>& v) {
+  if (v.size() < 3) return true;
+  double d = geometry::diameter(v);
+  // Zero area, or a sliver whose area is at rounding level for its size.
+  return !(geometry::area(v) > 1e-12 * d * d) || !(d > 0);
+}
+
+}  // namespace
+
+ValidationReport validate_scene(Scene& scene) {
+  ValidationReport report;
+  for (const Material& m : scene.materials) check_material(m);
+  std::vector<Polygon> kept;
+  kept.reserve(scene.polygons.size());
+  for (Polygon& polygon : scene.polygons) {
+    if (polygon.material < 0 || size_t(polygon.material) >= scene.materials.size())
+      throw InputError(polygon.origin + ": polygon refers to a material that does not exist");
+    for (const Vec3& p : polygon.vertices)
+      if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+        throw InputError(polygon.origin + ": polygon has a non-finite vertex coordinate");
+    std::vector<Vec3> v = merge_repeated(polygon.vertices);
+    if (degenerate(v)) {
+      report.warnings.push_back(polygon.origin + ": zero-area or degenerate polygon (" +
+                                std::to_string(polygon.vertices.size()) +
+                                " vertices) dropped");
+      ++report.dropped;
+      continue;
+    }
+    double defect = geometry::planarity_defect(v);
+    double diameter = geometry::diameter(v);
+    std::vector<std::vector<Vec3>> pieces;
+    if (defect > kPlanarityTolerance * diameter) {
+      pieces = split_non_planar(v);
+      report.warnings.push_back(polygon.origin + ": non-planar polygon (off its plane by " +
+                                std::to_string(defect) + " m, " +
+                                std::to_string(defect / diameter) +
+                                " of its size) split into triangles");
+    } else if (!geometry::is_convex(v)) {
+      pieces = ear_clip(v);
+      report.warnings.push_back(polygon.origin +
+                                ": non-convex polygon split into triangles by ear clipping");
+    } else {
+      polygon.vertices = std::move(v);
+      kept.push_back(std::move(polygon));
+      continue;
+    }
+    ++report.triangulated;
+    for (auto& piece : pieces) {
+      if (degenerate(piece)) continue;
+      kept.push_back(Polygon{std::move(piece), polygon.material, polygon.origin});
+    }
+  }
+  scene.polygons = std::move(kept);
+  if (scene.polygons.empty()) throw InputError(scene.name + ": the scene has no usable polygons");
+  return report;
+}
+
+void require_emitter(const Scene& scene) {
+  for (const Polygon& p : scene.polygons)
+    if (scene.materials[size_t(p.material)].emits()) return;
+  throw InputError(scene.name +
+                   ": the scene has no emitter (no material with emission > 0), so every "
+                   "radiosity is zero; give a material Ke (OBJ/MTL) or ed (MGF)");
+}
+
+void print_warnings(const ValidationReport& report) {
+  const size_t shown = 8;
+  for (size_t i = 0; i < report.warnings.size() && i < shown; ++i) log::warning(report.warnings[i]);
+  if (report.warnings.size() > shown)
+    log::warning(std::to_string(report.warnings.size() - shown) + " more warnings like these (" +
+                 std::to_string(report.dropped) + " polygons dropped, " +
+                 std::to_string(report.triangulated) + " split in all)");
+}
+
+}  // namespace radlab
