@@ -80,13 +80,14 @@ double polygon_form_factor_adaptive(const PolygonRef& from, const PolygonRef& to
          area;
 }
 
-int fixed_order_for(double gap, double diameter, double relative_tolerance, int max_order) {
-  if (!(gap > 0.0) || !(diameter > 0.0)) return 0;
-  const double a = 1.0 + 2.0 * gap / diameter;
-  const double rho = a + std::sqrt(a * a - 1.0);
-  const double m = std::log(1.0 / relative_tolerance) / (2.0 * std::log(rho));
-  const int order = std::max(1, int(std::ceil(m)));
-  return order <= max_order ? order : 0;
+FixedOrderRule::FixedOrderRule(double relative_tolerance, int max_order)
+    : min_ratio_(size_t(max_order) + 1, 0.0) {
+  for (int m = 1; m <= max_order; ++m) {
+    // Error ~ r^(-2m) <= tol  <=>  r >= tol^(-1/(2m));  a = (r + 1/r)/2;  gap/diameter = (a-1)/2.
+    const double r = std::pow(relative_tolerance, -1.0 / (2.0 * m));
+    const double a = 0.5 * (r + 1.0 / r);
+    min_ratio_[size_t(m)] = 0.5 * (a - 1.0);
+  }
 }
 
 }  // namespace radlab

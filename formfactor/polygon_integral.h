@@ -31,10 +31,25 @@ double polygon_form_factor_adaptive(const PolygonRef& from, const PolygonRef& to
                                     double relative_tolerance, double absolute_floor,
                                     int max_depth, long long* evaluations = nullptr);
 
-// The number of Gauss points per axis that a fixed rule needs for `relative_tolerance`, from the
-// Bernstein-ellipse bound for an integrand analytic within distance `gap` of an element of
-// diameter `diameter`: error ~ rho^(-2m), rho = a + sqrt(a^2 - 1), a = 1 + 2 gap / diameter.
-// Returns 0 when no fixed rule up to `max_order` suffices (the caller then goes adaptive).
-int fixed_order_for(double gap, double diameter, double relative_tolerance, int max_order);
+// Chooses the number of Gauss points per axis a fixed rule needs for a relative tolerance, from
+// the Bernstein-ellipse bound for an integrand analytic within distance `gap` of an element of
+// diameter `diameter`: error ~ r^(-2m), r = a + sqrt(a^2 - 1), a = 1 + 2 gap / diameter.
+// Thresholds are precomputed, so choosing costs a few comparisons per pair.
+class FixedOrderRule {
+ public:
+  FixedOrderRule(double relative_tolerance, int max_order);
+  // The smallest sufficient order, or 0 when no fixed rule up to max_order suffices (the caller
+  // then integrates adaptively).
+  int order(double gap, double diameter) const {
+    if (!(gap > 0.0) || !(diameter > 0.0)) return 0;
+    const double ratio = gap / diameter;
+    for (size_t m = 1; m < min_ratio_.size(); ++m)
+      if (ratio >= min_ratio_[m]) return int(m);
+    return 0;
+  }
+
+ private:
+  std::vector<double> min_ratio_;  // min_ratio_[m]: smallest gap/diameter that order m handles
+};
 
 }  // namespace radlab

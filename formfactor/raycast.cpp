@@ -39,8 +39,9 @@ std::string RaycastOptions::canonical() const {
 
 RaycastFormFactors::RaycastFormFactors(const Scene& scene, const Mesh& mesh,
                                        RaycastOptions options)
-    : mesh_(mesh), options_(options) {
-  options_.validate();
+    : mesh_(mesh),
+      options_((options.validate(), options)),
+      order_rule_(options.tolerance, options.max_order) {
   convex_enclosure_ = is_convex_enclosure(scene);
   double extent = 0.0;
   radius_.resize(mesh.size());
@@ -70,7 +71,7 @@ double RaycastFormFactors::unoccluded(size_t i, size_t j, RowCost& cost) const {
   const PolygonRef b{to, mesh_.normal[j]};
   const double gap =
       glm::distance(mesh_.centroid[i], mesh_.centroid[j]) - radius_[i] - radius_[j];
-  const int order = fixed_order_for(gap, 2.0 * radius_[i], options_.tolerance, options_.max_order);
+  const int order = order_rule_.order(gap, 2.0 * radius_[i]);
   if (order > 0) {
     cost.kernel_evaluations += uint64_t(order * order * (from.size() == 4 ? 1 : int(from.size()) - 2));
     return polygon_form_factor_fixed(a, b, order);
@@ -90,9 +91,18 @@ double RaycastFormFactors::visibility(size_t i, size_t j, RowCost& cost) const {
   stratified_points(corners, options_.rays, rng, p);
   mesh_.corners(hi, corners);
   stratified_points(corners, options_.rays, rng, q);
-  // Pair the strata of one element with a random permutation of the other's.
-  for (int k = options_.rays - 1; k > 0; --k)
-    std::swap(q[size_t(k)], q[rng.next_below(uint32_t(k + 1))]);
+  // Pair the strata of one element with a random permutation of the other's: an affine map
+  // k -> (a k + b) mod R with odd a when R is a power of two (cheap), Fisher–Yates otherwise.
+  const int R = options_.rays;
+  if ((R & (R - 1)) == 0) {
+    const uint32_t a = rng.next_u32() | 1u, b = rng.next_u32();
+    thread_local std::vector<Vec3> shuffled;
+    shuffled.resize(size_t(R));
+    for (int k = 0; k < R; ++k) shuffled[(a * uint32_t(k) + b) & uint32_t(R - 1)] = q[size_t(k)];
+    q.swap(shuffled);
+  } else {
+    for (int k = R - 1; k > 0; --k) std::swap(q[size_t(k)], q[rng.next_below(uint32_t(k + 1))]);
+  }
 
   int visible = 0;
   alignas(64) float ox[16], oy[16], oz[16], dx[16], dy[16], dz[16], tn[16], tf[16];

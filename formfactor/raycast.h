@@ -20,6 +20,7 @@
 
 #include "formfactor/embree_scene.h"
 #include "formfactor/form_factor_method.h"
+#include "formfactor/polygon_integral.h"
 
 namespace radlab {
 
@@ -52,6 +53,7 @@ class RaycastFormFactors final : public FormFactorMethod {
 
   const Mesh& mesh_;
   RaycastOptions options_;
+  FixedOrderRule order_rule_;
   bool convex_enclosure_ = false;
   double plane_epsilon_ = 0.0;
   std::vector<double> radius_;  // largest centroid-to-corner distance per element

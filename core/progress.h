@@ -1,0 +1,32 @@
+// Progress of long work on stderr (never stdout). On a terminal, one line redrawn in place with
+// rate, elapsed time and ETA; otherwise (logs, CI) a line at the start and one at the end only.
+// Silenced by log::set_quiet(true).
+#pragma once
+
+#include <chrono>
+#include <string>
+
+namespace radlab {
+
+class Progress {
+ public:
+  // `unit` names what is counted ("rows"), `total` may be 0 when unknown.
+  Progress(std::string label, std::string unit, double total);
+  ~Progress();
+  Progress(const Progress&) = delete;
+  Progress& operator=(const Progress&) = delete;
+
+  // Reports `done` units so far (redraws at most a few times per second).
+  void update(double done);
+  // Final line with the total time.
+  void finish(const std::string& note = "");
+
+ private:
+  std::string label_, unit_;
+  double total_;
+  bool terminal_;
+  bool finished_ = false;
+  std::chrono::steady_clock::time_point start_, last_draw_;
+};
+
+}  // namespace radlab

@@ -1,0 +1,41 @@
+// Options shared by the subcommands that take a scene (--subdiv, --element-size, --ff, ...), and
+// the glue from parsed options to a ProblemSpec.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <string>
+#include <vector>
+
+#include "experiments/problem.h"
+
+namespace radlab::cli {
+
+struct SceneOptions {
+  std::string scene;
+  int subdiv = 1;
+  double element_size = 0.0;
+};
+
+struct FormFactorOptions {
+  std::string method = "raycast";
+  std::vector<std::string> set;
+  std::string precision = "float";
+  std::string mode = "cached";
+};
+
+void add_scene_options(CLI::App& command, SceneOptions& options);
+void add_form_factor_options(CLI::App& command, FormFactorOptions& options, bool with_mode);
+
+ProblemSpec make_spec(const SceneOptions& scene, const FormFactorOptions& ff);
+
+// Creates the parent folder of `path` if it has one.
+void ensure_parent_folder(const std::string& path);
+
+// The subcommands; each registers itself on `app` and runs from its callback.
+void add_scenes_command(CLI::App& app);
+void add_solvers_command(CLI::App& app);
+void add_formfactors_command(CLI::App& app);
+void add_reference_command(CLI::App& app);
+void add_solve_command(CLI::App& app, int argc, char** argv);
+
+}  // namespace radlab::cli

@@ -1,0 +1,48 @@
+// `radlab formfactors SCENE --out F.csv`: computes the form-factor matrix, prints its diagnostics
+// and writes the non-zero entries as CSV `i,j,F` (element ids in input order).
+#include <cstdio>
+
+#include "core/csv.h"
+#include "core/log.h"
+#include "experiments/cli_common.h"
+
+namespace radlab::cli {
+
+void add_formfactors_command(CLI::App& app) {
+  auto* command = app.add_subcommand("formfactors", "compute a form-factor matrix and check it");
+  auto scene = std::make_shared<SceneOptions>();
+  auto ff = std::make_shared<FormFactorOptions>();
+  auto out = std::make_shared<std::string>();
+  add_scene_options(*command, *scene);
+  add_form_factor_options(*command, *ff, false);
+  command->add_option("--out", *out, "CSV of the non-zero entries: i,j,F");
+  command->callback([scene, ff, out]() {
+    ProblemSpec spec = make_spec(*scene, *ff);
+    spec.need_reference = false;
+    spec.require_emitter = false;
+    auto problem = prepare_problem(spec);
+    std::printf("method       %s (%s)\n", spec.ff_method.c_str(), problem->ff_parameters.c_str());
+    std::printf("elements     %zu\n", problem->mesh.size());
+    std::printf("time         %.3f s on %d threads\n", problem->build.seconds,
+                problem->build.threads);
+    std::printf("rays         %llu\n", static_cast<unsigned long long>(problem->build.cost.rays));
+    std::printf("pairs        %llu culled (facing away / coplanar), %llu unoccluded, %llu traced\n",
+                static_cast<unsigned long long>(problem->build.cost.pairs_culled),
+                static_cast<unsigned long long>(problem->build.cost.pairs_unoccluded),
+                static_cast<unsigned long long>(problem->build.cost.pairs_traced));
+    std::printf("diagnostics  %s\n", problem->diagnostics.summary().c_str());
+    for (const std::string& note : problem->method->left_out())
+      std::printf("left out     %s\n", note.c_str());
+    if (!out->empty()) {
+      ensure_parent_folder(*out);
+      CsvWriter csv(*out, {"i", "j", "F"});
+      const FormFactorMatrix& m = problem->matrix;
+      for (size_t i = 0; i < m.size(); ++i)
+        for (size_t j = 0; j < m.size(); ++j)
+          if (double f = m.at(i, j); f != 0.0) csv.add(i).add(j).add(f).end_row();
+      log::info("wrote " + *out);
+    }
+  });
+}
+
+}  // namespace radlab::cli

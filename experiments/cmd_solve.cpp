@@ -1,0 +1,134 @@
+// `radlab solve SCENE --solver NAME`: one run of one solver, measured against the certified
+// reference: trace CSV, final radiosities, run.json and (optionally) an EXR + PNG image.
+#include <cstdio>
+#include <filesystem>
+
+#include "core/error.h"
+#include "core/log.h"
+#include "experiments/cli_common.h"
+#include "experiments/outputs.h"
+#include "experiments/runner.h"
+#include "formfactor/embree_scene.h"
+#include "render/exr_io.h"
+#include "render/png_io.h"
+#include "render/renderer.h"
+#include "solvers/registry.h"
+
+namespace radlab::cli {
+namespace {
+
+struct SolveOptions {
+  SceneOptions scene;
+  FormFactorOptions ff;
+  std::string solver;
+  std::vector<std::string> set;
+  long long steps = -1, rows = -1;
+  double seconds = -1, tol = -1;
+  std::string trace, out, image, json;
+  int width = 512, height = 512;
+  bool display_image = true;
+};
+
+std::string run_id_for(const SolveOptions& o, const std::string& params) {
+  return o.solver + "/scene:" + o.scene.scene + (params.empty() ? "" : "/" + params);
+}
+
+void save_image(const Problem& problem, const Radiosity& field, const std::string& path, int width,
+                int height) {
+  EmbreeScene embree(problem.mesh);
+  const Camera camera = problem.scene().camera ? *problem.scene().camera
+                                               : default_camera(problem.mesh);
+  Image image = render_radiosity(problem.mesh, embree, field, camera, width, height);
+  ensure_parent_folder(path);
+  write_exr(path, image);
+  std::string png = std::filesystem::path(path).replace_extension(".png").string();
+  write_png(png, image, auto_exposure(image));
+  log::info("wrote " + path + " and " + png);
+}
+
+void run(const SolveOptions& o, int argc, char** argv) {
+  ParamBag bag = ParamBag::from_assignments(o.set, "solver '" + o.solver + "'");
+  std::unique_ptr<Solver> solver = make_solver(o.solver, bag);  // validates before any work
+
+  Budget budget;
+  if (o.steps >= 0) budget.steps = o.steps;
+  if (o.rows >= 0) budget.rows = o.rows;
+  if (o.seconds >= 0) budget.seconds = o.seconds;
+  if (o.tol >= 0) budget.tol = o.tol;
+
+  ProblemSpec spec = make_spec(o.scene, o.ff);
+  auto problem = prepare_problem(spec);
+
+  std::unique_ptr<TraceWriter> trace;
+  if (!o.trace.empty()) {
+    ensure_parent_folder(o.trace);
+    trace = std::make_unique<TraceWriter>(o.trace);
+  }
+  RunLabels labels{run_id_for(o, bag.canonical()), o.scene.scene, o.solver, bag.canonical()};
+  RunResult result = run_solver(*solver, *problem, budget, CheckpointSchedule{}, labels, trace.get());
+
+  std::printf("run          %s\n", labels.run_id.c_str());
+  std::printf("stopped      %s after %lld steps, %llu form-factor rows, %.4f s\n",
+              result.stop_reason.c_str(), result.steps, result.rows, result.seconds);
+  if (problem->reference) {
+    std::printf("error        rms_rel %.6g, p_mean %.6g, p_max %.6g (display: rms_rel %.6g)\n",
+                result.final_errors.rms_rel, result.final_errors.p_mean, result.final_errors.p_max,
+                result.final_display_errors.rms_rel);
+    std::printf("certified    ||B - B*||_inf / max B* <= %.6g\n", result.final_bound_relative);
+  }
+  if (!o.out.empty()) {
+    ensure_parent_folder(o.out);
+    write_radiosity_csv(o.out, problem->mesh, solver->solution());
+    log::info("wrote " + o.out);
+  }
+  if (!o.trace.empty()) log::info("wrote " + o.trace);
+  if (!o.image.empty())
+    save_image(*problem, o.display_image ? solver->display() : solver->solution(), o.image,
+               o.width, o.height);
+
+  std::string json_path = o.json;
+  if (json_path.empty() && !o.trace.empty())
+    json_path = std::filesystem::path(o.trace).replace_extension(".run.json").string();
+  if (!json_path.empty()) {
+    JsonWriter json;
+    json.begin_object();
+    json.field("command", command_line(argc, argv));
+    json.field("run_id", labels.run_id);
+    write_build_info(json);
+    write_problem_info(json, *problem);
+    write_solver_info(json, o.solver, bag.values());
+    write_run_result(json, budget, result);
+    json.end_object();
+    ensure_parent_folder(json_path);
+    json.save(json_path);
+    log::info("wrote " + json_path);
+  }
+}
+
+}  // namespace
+
+void add_solve_command(CLI::App& app, int argc, char** argv) {
+  auto* command = app.add_subcommand(
+      "solve", "run one solver on one scene, measured against the certified reference");
+  auto o = std::make_shared<SolveOptions>();
+  add_scene_options(*command, o->scene);
+  add_form_factor_options(*command, o->ff, true);
+  command->add_option("--solver", o->solver, "solver name (see `radlab solvers`)")->required();
+  command->add_option("--set", o->set, "solver parameter key=value (repeatable)")
+      ->allow_extra_args(false);
+  command->add_option("--steps", o->steps, "stop after N solver steps");
+  command->add_option("--rows", o->rows, "stop after N form-factor rows");
+  command->add_option("--seconds", o->seconds, "stop after T seconds of solver time");
+  command->add_option("--tol", o->tol,
+                      "stop when the certified bound ||B-B*||_inf / max B* <= X (checked at "
+                      "checkpoints); without any budget: 3n steps");
+  command->add_option("--trace", o->trace, "trace CSV (one row per checkpoint and channel)");
+  command->add_option("--out", o->out, "final radiosities CSV element,area,B_r,B_g,B_b");
+  command->add_option("--image", o->image, "EXR image of the display solution (PNG beside it)");
+  command->add_option("--width", o->width, "image width in pixels (default 512)");
+  command->add_option("--height", o->height, "image height in pixels (default 512)");
+  command->add_option("--json", o->json, "run.json path (default: beside the trace)");
+  command->callback([o, argc, argv]() { run(*o, argc, argv); });
+}
+
+}  // namespace radlab::cli

@@ -1,0 +1,30 @@
+// `radlab solvers`: every registered solver with its parameters, paper and cost per step.
+#include <cstdio>
+
+#include "experiments/cli_common.h"
+#include "formfactor/form_factor_method.h"
+#include "solvers/registry.h"
+
+namespace radlab::cli {
+
+void add_solvers_command(CLI::App& app) {
+  auto* command = app.add_subcommand("solvers", "list the solvers and form-factor methods");
+  command->callback([]() {
+    std::printf("Solvers (radlab solve SCENE --solver NAME [--set key=value]...):\n\n");
+    for (const SolverInfo& s : solver_registry()) {
+      std::printf("  %-20s %s\n", s.name.c_str(), s.summary.c_str());
+      std::printf("  %-20s paper: %s; one step: %s\n", "", s.reference.c_str(), s.cost.c_str());
+      for (const ParameterInfo& p : s.parameters)
+        std::printf("      %-16s default %-8s %s\n", p.name.c_str(), p.default_value.c_str(),
+                    p.help.c_str());
+    }
+    std::printf("\nForm-factor methods (--ff NAME [--ff-set key=value]...):\n\n");
+    for (const FormFactorMethodInfo& m : form_factor_methods()) {
+      std::printf("  %-20s %s\n", m.name.c_str(), m.summary.c_str());
+      for (const auto& [key, help] : m.parameters)
+        std::printf("      %-16s %s\n", key.c_str(), help.c_str());
+    }
+  });
+}
+
+}  // namespace radlab::cli

@@ -1,0 +1,33 @@
+// Files a run writes besides the trace: the per-element radiosity CSV and run.json.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/json.h"
+#include "core/radiosity.h"
+#include "experiments/problem.h"
+#include "experiments/runner.h"
+
+namespace radlab {
+
+// CSV `element,area,B_r,B_g,B_b` (grey fields repeat their one channel), element ids in input
+// order.
+void write_radiosity_csv(const std::string& path, const Mesh& mesh, const Radiosity& B);
+
+// Facts about the build and the machine: git SHA, compiler, build type, threads.
+void write_build_info(JsonWriter& json);
+
+// Everything about the problem: scene, mesh, form factors, what was left out, reference.
+void write_problem_info(JsonWriter& json, const Problem& problem);
+
+// Solver name and every option, defaults included ("resolved").
+void write_solver_info(JsonWriter& json, const std::string& solver,
+                       const std::map<std::string, std::string>& given);
+
+void write_run_result(JsonWriter& json, const Budget& budget, const RunResult& result);
+
+// The command line, quoted, for run.json.
+std::string command_line(int argc, char** argv);
+
+}  // namespace radlab

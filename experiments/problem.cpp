@@ -1,0 +1,55 @@
+#include "experiments/problem.h"
+
+#include "core/error.h"
+#include "core/log.h"
+#include "core/progress.h"
+
+namespace radlab {
+
+std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
+  auto problem = std::make_unique<Problem>();
+  problem->spec = spec;
+  problem->loaded = load_scene(spec.scene);
+  if (spec.require_emitter) require_emitter(problem->scene());
+  if (spec.mesh.subdivisions < 1) throw UsageError("--subdiv must be >= 1");
+  if (spec.mesh.element_size < 0) throw UsageError("--element-size must be > 0");
+  problem->mesh = build_mesh(problem->scene(), spec.mesh);
+  log::info(problem->scene().name + ": " + std::to_string(problem->scene().polygons.size()) +
+            " polygons, " + std::to_string(problem->mesh.size()) + " elements, " +
+            (problem->scene().is_grey() ? "grey (1 channel)" : "RGB (3 channels)"));
+
+  ParamBag ff_bag = ParamBag::from_assignments(spec.ff_set, "form factors '" + spec.ff_method + "'");
+  problem->method = make_form_factor_method(spec.ff_method, ff_bag, problem->scene(), problem->mesh);
+  problem->ff_parameters = problem->method->parameters();
+
+  const size_t n = problem->mesh.size();
+  // The dense matrix is built when rows are cached or the reference needs it; a streaming run
+  // without a reference never holds n^2 numbers.
+  if (spec.row_mode == RowMode::kCached || spec.need_reference) {
+    Progress progress("form factors (" + spec.ff_method + ", " + std::to_string(n) + " rows)",
+                      "rows", double(n));
+    problem->matrix = build_matrix(*problem->method, n, spec.precision, problem->build,
+                                   [&](size_t done, size_t) { progress.update(double(done)); });
+    progress.finish(std::to_string(problem->build.cost.rays) + " visibility rays");
+    problem->diagnostics = diagnose(problem->matrix, problem->mesh.area);
+    log::info("form factors: " + problem->diagnostics.summary());
+    if (problem->diagnostics.non_finite_entries > 0 || problem->diagnostics.negative_entries > 0)
+      throw NumericalError("form factors: " + problem->diagnostics.summary());
+  }
+
+  if (spec.row_mode == RowMode::kCached)
+    problem->system = std::make_unique<System>(problem->scene(), problem->mesh, problem->matrix);
+  else
+    problem->system = std::make_unique<System>(problem->scene(), problem->mesh, *problem->method);
+
+  if (spec.need_reference) {
+    Progress progress("reference solution (" + std::to_string(n) + " elements)", "", 0);
+    System cached(problem->scene(), problem->mesh, problem->matrix);
+    problem->reference = compute_reference(cached, problem->matrix);
+    progress.finish();
+    log::info("reference: " + problem->reference->summary());
+  }
+  return problem;
+}
+
+}  // namespace radlab

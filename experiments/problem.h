@@ -1,0 +1,54 @@
+// Everything a run needs, prepared once per scene + mesh + form-factor method and shared by all
+// the runs on it: the validated scene, its mesh, the form-factor method, the dense matrix (when
+// rows are cached), the System, and the certified reference.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/param_bag.h"
+#include "formfactor/diagnostics.h"
+#include "formfactor/form_factor_method.h"
+#include "formfactor/matrix.h"
+#include "scene/mesh.h"
+#include "scene/scene_loader.h"
+#include "solvers/reference.h"
+#include "solvers/system.h"
+
+namespace radlab {
+
+enum class RowMode { kCached, kOnTheFly };
+
+struct ProblemSpec {
+  std::string scene;                // builtin:NAME[:k=v,...] or a file
+  MeshOptions mesh;                 // --subdiv / --element-size
+  std::string ff_method = "raycast";
+  std::vector<std::string> ff_set;  // --ff-set k=v
+  Precision precision = Precision::kFloat;
+  RowMode row_mode = RowMode::kCached;
+  bool need_reference = true;
+  bool require_emitter = true;
+};
+
+struct Problem {
+  ProblemSpec spec;
+  LoadedScene loaded;
+  Mesh mesh;
+  std::unique_ptr<FormFactorMethod> method;
+  std::string ff_parameters;  // resolved, canonical
+  FormFactorMatrix matrix;    // empty (size 0) for streaming runs without a reference
+  BuildReport build;
+  MatrixDiagnostics diagnostics;
+  std::unique_ptr<System> system;  // rows from the matrix, or on the fly (RowMode)
+  std::optional<Reference> reference;
+
+  const Scene& scene() const { return loaded.scene; }
+  bool has_matrix() const { return matrix.size() > 0; }
+};
+
+// Loads, meshes, builds the matrix (with progress on stderr) and, if asked, the reference.
+std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec);
+
+}  // namespace radlab

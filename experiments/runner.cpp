@@ -1,0 +1,235 @@
+#include "experiments/runner.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "core/error.h"
+#include "core/log.h"
+#include "core/progress.h"
+#include "core/text.h"
+
+namespace radlab {
+
+std::string Budget::describe() const {
+  std::vector<std::string> parts;
+  if (steps) parts.push_back(std::to_string(*steps) + " steps");
+  if (rows) parts.push_back(std::to_string(*rows) + " rows");
+  if (seconds) parts.push_back(text::format_double(*seconds) + " s");
+  if (tol) parts.push_back("bound <= " + text::format_double(*tol));
+  return parts.empty() ? "none" : text::join(parts, ", ");
+}
+
+long long CheckpointSchedule::next_after(long long step) const {
+  long long next = step + 1;
+  if (next > every_step_until) {
+    // Geometric: the smallest step of the form ceil(every_step_until * growth^k) beyond `step`.
+    double s = double(std::max<long long>(every_step_until, 1));
+    while (static_cast<long long>(std::ceil(s)) <= step) s *= growth;
+    next = static_cast<long long>(std::ceil(s));
+  }
+  for (long long e : extra)
+    if (e > step) next = std::min(next, e);
+  return next;
+}
+
+namespace {
+
+bool all_finite(const Radiosity& field) {
+  for (double v : field.raw())
+    if (!std::isfinite(v)) return false;
+  return true;
+}
+
+class Evaluator {
+ public:
+  Evaluator(const Problem& problem, const RunLabels& labels, TraceWriter* trace)
+      : problem_(problem), labels_(labels), trace_(trace) {
+    if (problem.reference) {
+      for (int c = 0; c < problem.reference->B.channels(); ++c)
+        for (double v : problem.reference->B.channel(c)) max_reference_ = std::max(max_reference_, v);
+    }
+  }
+
+  // Writes the checkpoint rows; returns the certified relative bound (NaN if unavailable).
+  double evaluate(const Solver& solver, long long step, unsigned long long rows, double seconds,
+                  unsigned long long rays, RunResult& result) {
+    const Radiosity& B = solver.solution();
+    if (!all_finite(B))
+      throw NumericalError(labels_.run_id + ": non-finite radiosity at step " +
+                           std::to_string(step) + " (the solver diverged)");
+    const Radiosity display = solver.display();
+    const Radiosity* unshot = solver.unshot();
+    std::vector<double> residual;
+    if (problem_.has_matrix()) residual = residual_inf(*problem_.system, problem_.matrix, B);
+    const double inverse_norm =
+        problem_.reference ? problem_.reference->inverse_norm_bound : std::nan("");
+    const auto area = problem_.system->area();
+    const int channels = B.channels();
+
+    double worst_residual = 0.0;
+    for (double r : residual) worst_residual = std::max(worst_residual, r);
+    if (!residual.empty()) {
+      if (initial_residual_ < 0) initial_residual_ = worst_residual;
+      if (worst_residual > 1e8 * std::max(initial_residual_, 1e-300) && worst_residual > 0)
+        throw NumericalError(labels_.run_id + ": diverging: residual grew from " +
+                             text::format_double(initial_residual_) + " to " +
+                             text::format_double(worst_residual) + " by step " +
+                             std::to_string(step));
+    }
+
+    // One row for the mean of the channels, then one per channel when there are three.
+    std::vector<int> fields = {kMeanOfChannels};
+    if (channels == 3) fields.insert(fields.end(), {0, 1, 2});
+    const char* names[] = {"r", "g", "b"};
+    for (int field : fields) {
+      TraceRow row;
+      row.run_id = labels_.run_id;
+      row.scene = labels_.scene;
+      row.solver = labels_.solver;
+      row.params = labels_.params;
+      row.channel = field == kMeanOfChannels ? "mean" : names[field];
+      row.step = step;
+      row.ff_rows = rows;
+      row.seconds = seconds;
+      row.rays = rays;
+      const double nan = std::nan("");
+      ErrorMetrics e, d;
+      if (problem_.reference) {
+        e = compare(B, problem_.reference->B, area, field);
+        d = compare(display, problem_.reference->B, area, field);
+      }
+      auto or_nan = [&](double v) { return problem_.reference ? v : nan; };
+      row.rms = or_nan(e.rms);
+      row.rms_rel = or_nan(e.rms_rel);
+      row.p_mean = or_nan(e.p_mean);
+      row.p_rms = or_nan(e.p_rms);
+      row.p_max = or_nan(e.p_max);
+      row.p_over = or_nan(e.p_over);
+      row.p_under = or_nan(e.p_under);
+      row.p_excluded = e.p_excluded;
+      row.rms_display = or_nan(d.rms);
+      row.rms_rel_display = or_nan(d.rms_rel);
+      row.p_mean_display = or_nan(d.p_mean);
+      row.p_rms_display = or_nan(d.p_rms);
+      row.p_max_display = or_nan(d.p_max);
+      if (!residual.empty()) {
+        row.residual_inf = field == kMeanOfChannels ? worst_residual
+                                                    : residual[size_t(field)];
+        row.bound_inf = row.residual_inf * inverse_norm;
+      } else {
+        row.residual_inf = row.bound_inf = nan;
+      }
+      row.unshot_power = unshot ? total_power(*unshot, area, field) : nan;
+      row.total_power = total_power(B, area, field);
+      if (trace_) trace_->write(row);
+      if (field == kMeanOfChannels) {
+        result.final_errors = e;
+        result.final_display_errors = d;
+      }
+    }
+    const double bound = residual.empty() ? std::nan("") : worst_residual * inverse_norm;
+    return max_reference_ > 0 ? bound / max_reference_ : bound;
+  }
+
+ private:
+  const Problem& problem_;
+  const RunLabels& labels_;
+  TraceWriter* trace_;
+  double max_reference_ = 0.0;
+  double initial_residual_ = -1.0;
+};
+
+}  // namespace
+
+RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budget_in,
+                     const CheckpointSchedule& schedule, const RunLabels& labels,
+                     TraceWriter* trace, const CheckpointHook& hook) {
+  const System& system = *problem.system;
+  Budget budget = budget_in;
+  if (budget.tol && !problem.reference)
+    throw UsageError("--tol needs the reference (it bounds the error with its certificate)");
+  // Never run unbounded: a tolerance alone is capped at 1000 sweeps' worth of rows, and
+  // stagnation stops it sooner.
+  if (budget.empty()) budget.steps = 3 * static_cast<long long>(system.size());
+  if (!budget.steps && !budget.rows && !budget.seconds)
+    budget.rows = 1000 * static_cast<long long>(system.size());
+
+  RunResult result;
+  Evaluator evaluator(problem, labels, trace);
+  using Clock = std::chrono::steady_clock;
+  system.reset_counters();
+  auto t0 = Clock::now();
+  solver.init(system);
+  double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+
+  const double total = budget.steps  ? double(*budget.steps)
+                       : budget.rows ? double(*budget.rows)
+                                     : 0.0;
+  Progress progress(labels.run_id, budget.steps ? "steps" : "rows", total);
+  long long step = 0;
+  long long next_checkpoint = schedule.next_after(0);
+  std::vector<double> bounds;  // certified relative bounds at checkpoints, for stagnation
+  auto checkpoint = [&]() {
+    const double bound = evaluator.evaluate(solver, step, system.rows_used(), seconds,
+                                            system.rays_used(), result);
+    bounds.push_back(bound);
+    if (hook) hook(step, solver);
+    return bound;
+  };
+
+  double bound = checkpoint();
+  for (;;) {
+    if (budget.tol && bound <= *budget.tol) {
+      result.stop_reason = "tolerance reached";
+      break;
+    }
+    if (budget.steps && step >= *budget.steps) {
+      result.stop_reason = "step budget";
+      break;
+    }
+    if (budget.rows && static_cast<long long>(system.rows_used()) >= *budget.rows) {
+      result.stop_reason = "row budget";
+      break;
+    }
+    if (budget.seconds && seconds >= *budget.seconds) {
+      result.stop_reason = "time budget";
+      break;
+    }
+    auto start = Clock::now();
+    const StepInfo info = solver.step();
+    seconds += std::chrono::duration<double>(Clock::now() - start).count();
+    ++step;
+    progress.update(budget.steps ? double(step) : double(system.rows_used()));
+
+    const bool at_end = info.finished || (budget.steps && step >= *budget.steps) ||
+                        (budget.rows && static_cast<long long>(system.rows_used()) >= *budget.rows) ||
+                        (budget.seconds && seconds >= *budget.seconds);
+    if (step == next_checkpoint || at_end) {
+      bound = checkpoint();
+      next_checkpoint = schedule.next_after(step);
+      // Stagnation: with a tolerance to reach, no progress over the last 12 checkpoints
+      // (a span of ~9x in steps) means it will not be reached.
+      if (budget.tol && bounds.size() > 12 &&
+          !(bound < 0.99 * bounds[bounds.size() - 13]))
+        throw NumericalError(labels.run_id + ": stagnated at certified relative bound " +
+                             text::format_double(bound) + " (tolerance " +
+                             text::format_double(*budget.tol) + ") by step " +
+                             std::to_string(step));
+    }
+    if (info.finished) {
+      result.stop_reason = "solver finished";
+      break;
+    }
+  }
+  progress.finish(result.stop_reason);
+  result.steps = step;
+  result.rows = system.rows_used();
+  result.rays = system.rays_used();
+  result.seconds = seconds;
+  result.final_bound_relative = bound;
+  if (trace) trace->flush();
+  return result;
+}
+
+}  // namespace radlab

@@ -1,0 +1,60 @@
+// The runner measures; solvers compute (DESIGN §4, like Ceres' iteration callbacks and pbrt's
+// render loop). It times every step() (the clock excludes metric evaluation), evaluates the
+// metrics at a checkpoint schedule (every step early on, then geometrically spaced), writes the
+// trace, enforces the budget, and detects numerical trouble: non-finite values, divergence, and
+// stagnation when a tolerance is asked for.
+#pragma once
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "experiments/problem.h"
+#include "experiments/trace.h"
+#include "metrics/error_metrics.h"
+#include "solvers/solver.h"
+
+namespace radlab {
+
+struct Budget {
+  std::optional<long long> steps;  // solver steps
+  std::optional<long long> rows;   // form-factor rows
+  std::optional<double> seconds;   // solver seconds (metric evaluation excluded)
+  std::optional<double> tol;       // certified relative error bound ||B-B*||_inf / max B*
+
+  bool empty() const { return !steps && !rows && !seconds && !tol; }
+  std::string describe() const;
+};
+
+struct CheckpointSchedule {
+  long long every_step_until = 10;  // evaluate at steps 0..every_step_until
+  double growth = 1.2;              // then at steps growing by this factor
+  std::vector<long long> extra;     // and at these steps
+
+  // The first checkpoint after `step`.
+  long long next_after(long long step) const;
+};
+
+struct RunLabels {
+  std::string run_id, scene, solver, params;
+};
+
+struct RunResult {
+  long long steps = 0;
+  unsigned long long rows = 0, rays = 0;
+  double seconds = 0.0;
+  std::string stop_reason;
+  ErrorMetrics final_errors;          // on the mean of the channels, solution()
+  ErrorMetrics final_display_errors;  // on the mean of the channels, display()
+  double final_bound_relative = 0.0;  // certified ||B-B*||_inf / max B*, if a matrix exists
+};
+
+// Called at every checkpoint after the metrics are written (e.g. to save images).
+using CheckpointHook = std::function<void(long long step, const Solver& solver)>;
+
+RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budget,
+                     const CheckpointSchedule& schedule, const RunLabels& labels,
+                     TraceWriter* trace, const CheckpointHook& hook = {});
+
+}  // namespace radlab

@@ -1,0 +1,62 @@
+// The certified reference solution of the same discretised system (DESIGN §5).
+//
+// Solve (I - J) B = E, J = diag(rho) F, per channel: a double-precision solve (dense LU up to
+// `dense_limit` elements, restarted GMRES above), then iterative refinement with residuals
+// accumulated in long double (64-bit mantissa). The result is certified:
+//
+//   ||B - B*||_inf <= ||r||_inf * ||(I - J)^-1||_inf
+//
+// with two independent upper bounds on the inverse's norm, the tighter one used:
+//   (a) 1 / (1 - q), q = max_i rho_i sum_j F_ij, when q < 1 (DESIGN §5);
+//   (b) ||w||_inf / (1 - ||s||_inf), where w solves (I - J) w = 1 approximately and
+//       s = 1 - (I - J) w. If w > 0 and ||s||_inf < 1, then J w < w, so rho(J) < 1, (I-J)^-1 >= 0
+//       and (I-J)^-1 1 <= w / (1 - ||s||). This also certifies scenes with q >= 1 (some element
+//       with rho = 1 in a closed scene) as long as the spectral radius is below 1.
+// Residuals include a bound on their own rounding error, so the certificate is rigorous for the
+// stored F (float or double), rho and E.
+//
+// A system with no finite solution (spectral radius of J >= 1, e.g. a closed scene with rho = 1
+// everywhere) is detected by Collatz–Wielandt bounds before any solve and reported as a
+// NumericalError (exit 4); so is any solve that cannot be certified.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/radiosity.h"
+#include "formfactor/matrix.h"
+#include "solvers/system.h"
+
+namespace radlab {
+
+struct ReferenceOptions {
+  double target = 1e-12;      // stop refining once the bound is below target * max B
+  double acceptable = 1e-8;   // a bound above acceptable * max B is a failure
+  int max_refinements = 10;   // refinement steps per channel
+  size_t dense_limit = 9000;  // largest n for dense LU (n^2 doubles of memory, n^3/3 flops)
+};
+
+struct Reference {
+  Radiosity B;
+  double bound_inf = 0.0;       // certified max over channels of ||B - B*||_inf
+  double bound_relative = 0.0;  // bound_inf / max B
+  double residual_inf = 0.0;    // max over channels of ||E - (I-J)B||_inf (with rounding bound)
+  double inverse_norm_bound = 0.0;  // certified upper bound on ||(I-J)^-1||_inf (worst channel)
+  double q = 0.0;                   // max_i rho_i sum_j F_ij (worst channel)
+  double spectral_radius_upper = 0.0;  // Collatz–Wielandt upper bound on rho(J) (worst channel)
+  std::string method;                  // "dense LU" or "GMRES(30)"
+  int refinements = 0;
+  double seconds = 0.0;
+
+  std::string summary() const;
+};
+
+Reference compute_reference(const System& system, const FormFactorMatrix& matrix,
+                            const ReferenceOptions& options = {});
+
+// ||E - (I - J) B||_inf per channel, accumulated in long double, plus a bound on the rounding of
+// that computation. Used by the reference and by the metrics.
+std::vector<double> residual_inf(const System& system, const FormFactorMatrix& matrix,
+                                 const Radiosity& B);
+
+}  // namespace radlab

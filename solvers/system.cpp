@@ -1,0 +1,39 @@
+#include "solvers/system.h"
+
+#include <algorithm>
+
+namespace radlab {
+
+System::System(const Scene& scene, const Mesh& mesh, const FormFactorMatrix& matrix)
+    : mesh_(mesh), matrix_(&matrix) {
+  init(scene);
+}
+
+System::System(const Scene& scene, const Mesh& mesh, const FormFactorMethod& method)
+    : mesh_(mesh), method_(&method) {
+  init(scene);
+}
+
+void System::init(const Scene& scene) {
+  const size_t n = mesh_.size();
+  const int channels = scene.is_grey() ? 1 : 3;
+  area_ = mesh_.area;
+  inverse_area_.resize(n);
+  total_area_ = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    inverse_area_[i] = 1.0 / area_[i];
+    total_area_ += area_[i];
+  }
+  reflectance_ = Radiosity(channels, n);
+  emission_ = Radiosity(channels, n);
+  for (size_t i = 0; i < n; ++i) {
+    const Material& m = scene.materials[size_t(scene.polygons[mesh_.polygon[i]].material)];
+    for (int c = 0; c < channels; ++c) {
+      reflectance_.at(c, i) = m.reflectance[c];
+      emission_.at(c, i) = m.emission[c];
+      max_reflectance_ = std::max(max_reflectance_, m.reflectance[c]);
+    }
+  }
+}
+
+}  // namespace radlab

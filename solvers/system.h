@@ -1,0 +1,84 @@
+// The discretised radiosity system a solver works on (DESIGN §2):
+//
+//   B_i = E_i + rho_i * sum_j F_ij B_j      for every element i and colour channel
+//
+// It holds the per-element areas, reflectances and emissions (one channel when the scene is
+// grey, three otherwise) and gives access to rows of F, either from a cached dense matrix or
+// computed on the fly by a form-factor method. Every row a solver reads is counted, and rows
+// computed on the fly charge their time to the step that asked (the runner's clock is running),
+// so "form-factor rows" on every plot axis is honest whichever way the rows come.
+//
+// A System is immutable during a run except for its counters.
+#pragma once
+
+#include <atomic>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "core/radiosity.h"
+#include "formfactor/form_factor_method.h"
+#include "formfactor/matrix.h"
+#include "scene/mesh.h"
+
+namespace radlab {
+
+class System {
+ public:
+  // Rows from a dense matrix (not owned; must outlive the System).
+  System(const Scene& scene, const Mesh& mesh, const FormFactorMatrix& matrix);
+  // Rows computed on demand by `method` (not owned).
+  System(const Scene& scene, const Mesh& mesh, const FormFactorMethod& method);
+
+  size_t size() const { return area_.size(); }
+  int channels() const { return reflectance_.channels(); }
+  const Mesh& mesh() const { return mesh_; }
+  std::span<const double> area() const { return area_; }
+  std::span<const double> inverse_area() const { return inverse_area_; }
+  double total_area() const { return total_area_; }
+  const Radiosity& reflectance() const { return reflectance_; }
+  const Radiosity& emission() const { return emission_; }
+  // The largest reflectance over elements and channels.
+  double max_reflectance() const { return max_reflectance_; }
+
+  // Calls fn(const T* row) with row[j] = F_ij, T = float or double; counts one row.
+  template <class Fn>
+  void with_row(size_t i, Fn&& fn) const {
+    rows_used_.fetch_add(1, std::memory_order_relaxed);
+    if (matrix_) {
+      matrix_->visit_row(i, fn);
+      return;
+    }
+    thread_local std::vector<double> scratch;
+    scratch.resize(size());
+    RowCost cost;
+    method_->row(i, scratch, cost);
+    rays_used_.fetch_add(cost.rays, std::memory_order_relaxed);
+    fn(static_cast<const double*>(scratch.data()));
+  }
+
+  // The dense matrix when rows come from one (null when computed on the fly).
+  const FormFactorMatrix* matrix() const { return matrix_; }
+
+  uint64_t rows_used() const { return rows_used_.load(); }
+  uint64_t rays_used() const { return rays_used_.load(); }
+  void reset_counters() const {
+    rows_used_ = 0;
+    rays_used_ = 0;
+  }
+
+ private:
+  void init(const Scene& scene);
+
+  const Mesh& mesh_;
+  const FormFactorMatrix* matrix_ = nullptr;
+  const FormFactorMethod* method_ = nullptr;
+  std::vector<double> area_, inverse_area_;
+  double total_area_ = 0.0;
+  double max_reflectance_ = 0.0;
+  Radiosity reflectance_, emission_;
+  mutable std::atomic<uint64_t> rows_used_{0};
+  mutable std::atomic<uint64_t> rays_used_{0};
+};
+
+}  // namespace radlab
