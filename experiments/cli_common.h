@@ -37,5 +37,7 @@ void add_solvers_command(CLI::App& app);
 void add_formfactors_command(CLI::App& app);
 void add_reference_command(CLI::App& app);
 void add_solve_command(CLI::App& app, int argc, char** argv);
+void add_run_command(CLI::App& app, int argc, char** argv);
+void add_merge_command(CLI::App& app);
 
 }  // namespace radlab::cli

@@ -174,6 +174,18 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
     const double bound = evaluator.evaluate(solver, step, system.rows_used(), seconds,
                                             system.rays_used(), result);
     bounds.push_back(bound);
+    CheckpointRecord record;
+    record.step = step;
+    record.rows = system.rows_used();
+    record.seconds = seconds;
+    const double nan = std::nan("");
+    const bool measured = problem.reference.has_value();
+    record.rms_rel = measured ? result.final_errors.rms_rel : nan;
+    record.p_mean = measured ? result.final_errors.p_mean : nan;
+    record.rms_rel_display = measured ? result.final_display_errors.rms_rel : nan;
+    record.p_mean_display = measured ? result.final_display_errors.p_mean : nan;
+    record.bound_relative = bound;
+    result.history.push_back(record);
     if (hook) hook(step, solver);
     return bound;
   };

@@ -40,7 +40,17 @@ struct RunLabels {
   std::string run_id, scene, solver, params;
 };
 
+// The mean-of-channels metrics at one checkpoint, kept for the summary and the fits.
+struct CheckpointRecord {
+  long long step = 0;
+  unsigned long long rows = 0;
+  double seconds = 0.0;
+  double rms_rel = 0.0, p_mean = 0.0, rms_rel_display = 0.0, p_mean_display = 0.0;
+  double bound_relative = 0.0;
+};
+
 struct RunResult {
+  std::vector<CheckpointRecord> history;
   long long steps = 0;
   unsigned long long rows = 0, rays = 0;
   double seconds = 0.0;

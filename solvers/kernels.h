@@ -1,42 +1,70 @@
-// Inner loops shared by the solvers, templated on the stored precision of F (float or double);
-// accumulation is always in double (DESIGN §2: all-float shooting stalls at rho near 1).
+// Inner loops shared by the solvers, for rows of F stored as float or double. Accumulation is
+// always in double (DESIGN §2: all-float shooting stalls at rho near 1).
+//
+// Every kernel has a portable scalar version and, on x86-64, an AVX2 version chosen at run time
+// (the build targets baseline x86-64, where the scalar loops run 2-4x slower than the vector
+// ones; bench/bench_solvers.cpp measures both). The AVX2 versions reproduce the scalar arithmetic
+// exactly: the same operations in the same order, sums kept in the same 16 lanes and combined by
+// the same tree, no fused multiply-adds. Results are therefore bit-identical on every x86-64
+// machine, and a test checks it.
 #pragma once
 
 #include <cstddef>
+#include <limits>
 
 #include "core/radiosity.h"
 
 namespace radlab::kernels {
 
-// out[c] = sum_j F[j] * B_c[j] for each channel c.
-template <class T>
-inline void gather(const T* F, const Radiosity& B, double* out) {
-  const size_t n = B.size();
-  if (B.channels() == 1) {
-    const double* b = B.channel(0).data();
-    double s0 = 0.0, s1 = 0.0;
-    size_t j = 0;
-    for (; j + 1 < n; j += 2) {
-      s0 += double(F[j]) * b[j];
-      s1 += double(F[j + 1]) * b[j + 1];
-    }
-    if (j < n) s0 += double(F[j]) * b[j];
-    out[0] = s0 + s1;
-    return;
-  }
-  const double* r = B.channel(0).data();
-  const double* g = B.channel(1).data();
-  const double* b = B.channel(2).data();
-  double sr = 0.0, sg = 0.0, sb = 0.0;
-  for (size_t j = 0; j < n; ++j) {
-    const double f = double(F[j]);
-    sr += f * r[j];
-    sg += f * g[j];
-    sb += f * b[j];
-  }
-  out[0] = sr;
-  out[1] = sg;
-  out[2] = sb;
-}
+// out[c] = sum_j F[j] * x_c[j] for each channel c of x. With clamp_negative, negative x values
+// count as zero (the clamped regather of overshooting).
+void gather(const float* F, const Radiosity& x, double* out, bool clamp_negative = false);
+void gather(const double* F, const Radiosity& x, double* out, bool clamp_negative = false);
+
+// out[c] = sum_j F[j] * x_c[j] (as gather) and, in the same pass, z_c[j] += a[c] * F[j] for every
+// j: the row's contribution to F^T z. One streaming pass gives both A F p and (A F)^T p, the
+// symmetric part that conjugate gradients needs when F itself is not reciprocal.
+void gather_scatter(const float* F, const Radiosity& x, double* out, Radiosity& z, const double* a);
+void gather_scatter(const double* F, const Radiosity& x, double* out, Radiosity& z,
+                    const double* a);
+
+// The receivers of one shot (all arrays have one entry per element).
+struct ShotTargets {
+  int channels = 1;
+  double* unshot[3] = {nullptr, nullptr, nullptr};        // dB_c, updated
+  const double* weight[3] = {nullptr, nullptr, nullptr};  // rho_c[j] / A[j]
+  const double* area = nullptr;                           // A[j], for the priority
+  double* coverage = nullptr;                             // Wu & Wang's dff (optional)
+  const double* inverse_area = nullptr;                   // 1 / A[j], with coverage
+};
+
+inline constexpr size_t kNone = std::numeric_limits<size_t>::max();
+
+// The largest priority A_j * sum_c |dB_cj| in a range and the lowest index holding it.
+struct Argmax {
+  double value = -1.0;
+  size_t index = kNone;
+};
+
+// For every j in [lo, hi): dB_c[j] += (F[j] * k[c]) * weight_c[j], i.e. the shot delivers
+// rho_j F_ij (A_i / A_j) s_c when k[c] = A_i s_c. With coverage set, also
+// coverage[j] += (F[j] * coverage_scale) * inverse_area[j] (F_ji = F_ij A_i / A_j for
+// coverage_scale = A_i). With select, returns the largest priority among the updated elements
+// (fused into the same pass: a shot changes every receiver's priority, so any heap or tree would
+// pay at least this much to learn the new maximum).
+Argmax shoot(const float* F, size_t lo, size_t hi, const double* k, double coverage_scale,
+             const ShotTargets& targets, bool select);
+Argmax shoot(const double* F, size_t lo, size_t hi, const double* k, double coverage_scale,
+             const ShotTargets& targets, bool select);
+
+// The largest priority over [lo, hi) without changing anything (after gathers, or at init).
+Argmax max_priority(size_t lo, size_t hi, const ShotTargets& targets);
+
+// out[c] = sum_j A[j] * dB_c[j] (the unshot power); with clamp_negative only positive dB counts.
+void unshot_power(const ShotTargets& targets, size_t n, bool clamp_negative, double* out);
+
+// Chooses the AVX2 versions (the default where the CPU has AVX2) or the scalar ones. For tests
+// and benchmarks; returns whether the vector versions are now in use.
+bool use_vector_kernels(bool enable);
 
 }  // namespace radlab::kernels

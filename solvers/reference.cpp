@@ -191,8 +191,8 @@ std::vector<double> row_sums(const FormFactorMatrix& F) {
 // Collatz–Wielandt: for non-negative J and x >= 0, x != 0:
 //   min_{x_i>0} (Jx)_i / x_i <= rho(J) <= max_i (Jx)_i / x_i  (the upper bound needs x > 0).
 // Power iteration tightens both. Returns {lower, upper}.
-std::pair<double, double> spectral_radius_bounds(const FormFactorMatrix& F,
-                                                 std::span<const double> rho, int iterations) {
+std::pair<double, double> collatz_wielandt(const FormFactorMatrix& F, std::span<const double> rho,
+                                           int iterations, bool stop_at_one) {
   const size_t n = F.size();
   std::vector<double> x(n, 1.0), y(n);
   double lower = 0.0, upper = std::numeric_limits<double>::infinity();
@@ -215,12 +215,19 @@ std::pair<double, double> spectral_radius_bounds(const FormFactorMatrix& F,
     if (positive) upper = std::min(upper, hi);
     if (scale <= 0.0) return {0.0, 0.0};
     for (size_t i = 0; i < n; ++i) x[i] = y[i] / scale;
-    if (lower >= 1.0 || upper < 1.0) break;
+    if (stop_at_one && (lower >= 1.0 || upper < 1.0)) break;
+    if (upper - lower <= 1e-9 * upper) break;
   }
   return {lower, upper};
 }
 
 }  // namespace
+
+SpectralRadiusBounds spectral_radius_bounds(const FormFactorMatrix& matrix,
+                                            std::span<const double> rho, int iterations) {
+  auto [lower, upper] = collatz_wielandt(matrix, rho, iterations, false);
+  return {lower, upper};
+}
 
 std::vector<double> residual_inf(const System& system, const FormFactorMatrix& matrix,
                                  const Radiosity& B) {
@@ -264,7 +271,7 @@ Reference compute_reference(const System& system, const FormFactorMatrix& F,
                            "), so emitted light is never absorbed; lower a reflectance");
     double radius_upper = q;
     if (q >= 1.0) {
-      auto [lower, upper] = spectral_radius_bounds(F, rho, 60);
+      auto [lower, upper] = collatz_wielandt(F, rho, 60, true);
       radius_upper = upper;
       if (lower >= 1.0)
         throw NumericalError("no finite solution in channel " + channel +

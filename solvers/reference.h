@@ -54,6 +54,15 @@ struct Reference {
 Reference compute_reference(const System& system, const FormFactorMatrix& matrix,
                             const ReferenceOptions& options = {});
 
+// Collatz–Wielandt bounds on the spectral radius of J = diag(rho) F for one channel after
+// `iterations` steps of power iteration (J is non-negative): lower <= rho(J) <= upper.
+struct SpectralRadiusBounds {
+  double lower = 0.0;
+  double upper = 0.0;
+};
+SpectralRadiusBounds spectral_radius_bounds(const FormFactorMatrix& matrix,
+                                            std::span<const double> rho, int iterations);
+
 // ||E - (I - J) B||_inf per channel, accumulated in long double, plus a bound on the rounding of
 // that computation. Used by the reference and by the metrics.
 std::vector<double> residual_inf(const System& system, const FormFactorMatrix& matrix,

@@ -3,6 +3,7 @@
 #include "core/error.h"
 #include "core/text.h"
 #include "solvers/gathering.h"
+#include "solvers/solver_factories.h"
 
 namespace radlab {
 
@@ -10,6 +11,11 @@ const std::vector<SolverInfo>& solver_registry() {
   static const std::vector<SolverInfo> table = {
       jacobi_solver_info(),
       gauss_seidel_solver_info(),
+      shooting_solver_info(),
+      sorted_shooting_solver_info(),
+      overshooting_solver_info(),
+      interleaved_solver_info(),
+      conjugate_gradient_solver_info(),
   };
   return table;
 }

@@ -4,6 +4,8 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -16,6 +18,15 @@ struct StepInfo {
   // True when the solver has nothing left to do: e.g. no unshot energy anywhere, so further
   // steps would not change the solution. The runner stops.
   bool finished = false;
+};
+
+// Wu & Wang 2002's coverage of each element by the shots of the current shooting session (their
+// Figs. 2 and 4 plot p-error against it). Views into the solver's arrays: valid as long as the
+// solver, the values change with every step.
+struct ShotCoverage {
+  std::span<const double> form_factor_sum;  // dff_j = sum of F_ji over this session's shooters i
+  std::span<const uint8_t> shot;            // 1 where element j shot in this session
+  long long session = 0;                    // shooting sessions started so far (1 = the first)
 };
 
 class Solver {
@@ -32,6 +43,8 @@ class Solver {
   virtual Radiosity display() const { return solution(); }
   // Unshot radiosity dB for shooting methods (null for gathering methods).
   virtual const Radiosity* unshot() const { return nullptr; }
+  // Per-element shot coverage for solvers that track it (interleaved); null otherwise.
+  virtual const ShotCoverage* shot_coverage() const { return nullptr; }
 };
 
 }  // namespace radlab

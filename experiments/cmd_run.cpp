@@ -1,0 +1,55 @@
+// `radlab run EXPERIMENT.toml [--out DIR] [--shard i/N]` and `radlab merge DIR... --out DIR`.
+#include <cstdio>
+#include <filesystem>
+
+#include "core/log.h"
+#include "experiments/cli_common.h"
+#include "experiments/merge.h"
+#include "experiments/outputs.h"
+#include "experiments/sweep.h"
+
+namespace radlab::cli {
+
+void add_run_command(CLI::App& app, int argc, char** argv) {
+  auto* command = app.add_subcommand(
+      "run", "run an experiment file: scenes x solvers x parameter axes, with a shared reference");
+  struct Options {
+    std::string file, out, shard = "0/1";
+    bool list = false;
+  };
+  auto o = std::make_shared<Options>();
+  command->add_option("experiment", o->file, "experiment file (experiments/*.toml)")->required();
+  command->add_option("--out", o->out, "output folder (default out/NAME)");
+  command->add_option("--shard", o->shard, "run every N-th run only: i/N (merge with `radlab merge`)");
+  command->add_flag("--list", o->list, "list the runs and exit");
+  command->callback([o, argc, argv]() {
+    ExperimentSpec spec = read_experiment(o->file);
+    if (o->list) {
+      SweepPlan plan = plan_sweep(spec);
+      for (const PlannedRun& run : plan.runs) std::printf("%zu %s\n", run.index, run.run_id.c_str());
+      return;
+    }
+    SweepOptions options;
+    options.out_dir = o->out.empty() ? "out/" + spec.name : o->out;
+    std::tie(options.shard_index, options.shard_count) = parse_shard(o->shard);
+    options.command = command_line(argc, argv);
+    SweepReport report = run_sweep(spec, options);
+    std::printf("ran %zu of %zu runs; results in %s (trace.csv, summary.csv, runs/%s)\n",
+                report.runs_done, report.runs_total, options.out_dir.c_str(),
+                spec.images.steps.empty() ? "" : ", images/");
+  });
+}
+
+void add_merge_command(CLI::App& app) {
+  auto* command = app.add_subcommand("merge", "combine the outputs of sweep shards");
+  auto dirs = std::make_shared<std::vector<std::string>>();
+  auto out = std::make_shared<std::string>();
+  command->add_option("shards", *dirs, "shard output folders")->required();
+  command->add_option("--out", *out, "merged output folder")->required();
+  command->callback([dirs, out]() {
+    const size_t runs = merge_sweeps(*dirs, *out);
+    std::printf("merged %zu runs from %zu shards into %s\n", runs, dirs->size(), out->c_str());
+  });
+}
+
+}  // namespace radlab::cli

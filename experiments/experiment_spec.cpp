@@ -1,0 +1,291 @@
+#include "experiments/experiment_spec.h"
+
+#include <filesystem>
+#include <set>
+#include <toml++/toml.h>
+
+#include "core/error.h"
+#include "core/text.h"
+#include "solvers/registry.h"
+
+namespace radlab {
+namespace {
+
+class Reader {
+ public:
+  explicit Reader(std::string path) : path_(std::move(path)) {}
+
+  [[noreturn]] void fail(const toml::node& node, const std::string& message) const {
+    throw InputError(path_ + ":" + std::to_string(node.source().begin.line) + ": " + message);
+  }
+  [[noreturn]] void fail_at(const toml::source_region& where, const std::string& message) const {
+    throw InputError(path_ + ":" + std::to_string(where.begin.line) + ": " + message);
+  }
+
+  // Rejects keys not in `allowed`, naming the line and listing the valid keys.
+  void only(const toml::table& table, const std::set<std::string>& allowed,
+            const std::string& where) const {
+    for (auto&& [key, node] : table) {
+      if (allowed.count(std::string(key.str()))) continue;
+      fail_at(key.source(), "unknown key '" + std::string(key.str()) + "' in " + where +
+                                "; valid keys: " +
+                                text::join(std::vector<std::string>(allowed.begin(), allowed.end()),
+                                           ", "));
+    }
+  }
+
+  std::string string(const toml::node& node, const std::string& what) const {
+    if (auto v = node.value<std::string>()) return *v;
+    fail(node, what + " must be a string");
+  }
+  long long integer(const toml::node& node, const std::string& what) const {
+    if (auto v = node.value<int64_t>()) return *v;
+    fail(node, what + " must be an integer");
+  }
+  double number(const toml::node& node, const std::string& what) const {
+    if (node.is_integer()) return double(*node.value<int64_t>());
+    if (auto v = node.value<double>()) return *v;
+    fail(node, what + " must be a number");
+  }
+  // Any scalar as text (for solver and method parameters): booleans as true/false.
+  std::string scalar(const toml::node& node, const std::string& what) const {
+    if (auto v = node.value<bool>()) return *v ? "true" : "false";
+    if (node.is_integer()) return std::to_string(*node.value<int64_t>());
+    if (auto v = node.value<double>()) return text::format_double(*v);
+    if (auto v = node.value<std::string>()) return *v;
+    fail(node, what + " must be a string, number or boolean");
+  }
+  // A scalar or an array of scalars, as a list.
+  template <class Fn>
+  auto list(const toml::node& node, Fn&& item) const {
+    using T = decltype(item(node));
+    std::vector<T> out;
+    if (const toml::array* array = node.as_array()) {
+      for (const toml::node& element : *array) out.push_back(item(element));
+      if (out.empty()) fail(node, "an empty list is not allowed here");
+    } else {
+      out.push_back(item(node));
+    }
+    return out;
+  }
+
+ private:
+  std::string path_;
+};
+
+}  // namespace
+
+ExperimentSpec read_experiment(const std::string& path) {
+  if (!std::filesystem::exists(path)) throw InputError(path + ": no such file");
+  toml::table root;
+  try {
+    root = toml::parse_file(path);
+  } catch (const toml::parse_error& e) {
+    throw InputError(path + ":" + std::to_string(e.source().begin.line) + ": " +
+                     std::string(e.description()));
+  }
+  Reader r(path);
+  r.only(root,
+         {"name", "description", "scenes", "subdiv", "element_size", "solvers", "seeds",
+          "form_factors", "budget", "checkpoints", "parameters", "images"},
+         "the experiment");
+  ExperimentSpec spec;
+  spec.path = path;
+  spec.name = std::filesystem::path(path).stem().string();
+  if (auto n = root["name"]) spec.name = r.string(*n.node(), "name");
+  if (auto n = root["description"]) spec.description = r.string(*n.node(), "description");
+
+  auto scenes = root["scenes"];
+  if (!scenes) throw InputError(path + ": 'scenes' is required (a list of scene specs)");
+  spec.scenes = r.list(*scenes.node(), [&](const toml::node& n) { return r.string(n, "scene"); });
+
+  if (root["subdiv"] && root["element_size"])
+    r.fail(*root["element_size"].node(), "give 'subdiv' or 'element_size', not both");
+  if (auto n = root["element_size"]) {
+    for (double h : r.list(*n.node(), [&](const toml::node& v) {
+           double h = r.number(v, "element_size");
+           if (!(h > 0)) r.fail(v, "element_size must be > 0");
+           return h;
+         }))
+      spec.meshes.push_back(MeshOptions{1, h});
+  } else if (auto s = root["subdiv"]) {
+    for (long long k : r.list(*s.node(), [&](const toml::node& v) {
+           long long k = r.integer(v, "subdiv");
+           if (k < 1) r.fail(v, "subdiv must be >= 1");
+           return k;
+         }))
+      spec.meshes.push_back(MeshOptions{int(k), 0.0});
+  } else {
+    spec.meshes.push_back(MeshOptions{});
+  }
+
+  auto solvers = root["solvers"];
+  if (!solvers) throw InputError(path + ": 'solvers' is required (names, or [\"all\"])");
+  for (const std::string& name :
+       r.list(*solvers.node(), [&](const toml::node& n) { return r.string(n, "solver"); })) {
+    if (name == "all") {
+      for (const SolverInfo& info : solver_registry()) spec.solvers.push_back({info.name, {}});
+      continue;
+    }
+    try {
+      solver_info(name);
+    } catch (const UsageError& e) {
+      r.fail(*solvers.node(), e.what());
+    }
+    spec.solvers.push_back({name, {}});
+  }
+
+  if (auto n = root["seeds"])
+    spec.seeds = r.list(*n.node(), [&](const toml::node& v) { return r.integer(v, "seed"); });
+
+  if (const toml::table* ff = root["form_factors"].as_table()) {
+    for (auto&& [key, node] : *ff) {
+      const std::string k(key.str());
+      if (k == "method") {
+        spec.ff_method = r.string(node, "form_factors.method");
+      } else if (k == "mode") {
+        const std::string mode = r.string(node, "form_factors.mode");
+        if (mode != "cached" && mode != "on-the-fly")
+          r.fail(node, "form_factors.mode must be 'cached' or 'on-the-fly'");
+        spec.row_mode = mode == "cached" ? RowMode::kCached : RowMode::kOnTheFly;
+      } else if (k == "precision") {
+        const std::string p = r.string(node, "form_factors.precision");
+        if (p != "float" && p != "double")
+          r.fail(node, "form_factors.precision must be 'float' or 'double'");
+        spec.precision = p == "float" ? Precision::kFloat : Precision::kDouble;
+      } else if (k == "seed") {
+        r.fail_at(key.source(), "give form-factor seeds with the top-level 'seeds' list");
+      } else {
+        spec.ff_parameters[k] = r.scalar(node, "form_factors." + k);  // checked by the method
+      }
+    }
+  } else if (root["form_factors"]) {
+    r.fail(*root["form_factors"].node(), "'form_factors' must be a table");
+  }
+
+  if (const toml::table* b = root["budget"].as_table()) {
+    r.only(*b, {"steps", "rows", "seconds", "tol"}, "[budget]");
+    if (auto n = (*b)["steps"]) spec.budget.steps = r.integer(*n.node(), "budget.steps");
+    if (auto n = (*b)["rows"]) spec.budget.rows = r.integer(*n.node(), "budget.rows");
+    if (auto n = (*b)["seconds"]) spec.budget.seconds = r.number(*n.node(), "budget.seconds");
+    if (auto n = (*b)["tol"]) spec.budget.tol = r.number(*n.node(), "budget.tol");
+  }
+
+  if (const toml::table* c = root["checkpoints"].as_table()) {
+    r.only(*c, {"every_step_until", "growth", "extra"}, "[checkpoints]");
+    if (auto n = (*c)["every_step_until"])
+      spec.schedule.every_step_until = r.integer(*n.node(), "checkpoints.every_step_until");
+    if (auto n = (*c)["growth"]) {
+      spec.schedule.growth = r.number(*n.node(), "checkpoints.growth");
+      if (!(spec.schedule.growth > 1.0)) r.fail(*n.node(), "checkpoints.growth must be > 1");
+    }
+    if (auto n = (*c)["extra"])
+      spec.schedule.extra =
+          r.list(*n.node(), [&](const toml::node& v) { return r.integer(v, "checkpoint"); });
+  }
+
+  if (const toml::table* p = root["parameters"].as_table()) {
+    for (auto&& [key, node] : *p) {
+      const std::string solver(key.str());
+      auto it = std::find_if(spec.solvers.begin(), spec.solvers.end(),
+                             [&](const SolverSweep& s) { return s.name == solver; });
+      if (it == spec.solvers.end())
+        r.fail_at(key.source(), "[parameters." + solver + "]: '" + solver +
+                                    "' is not among the experiment's solvers");
+      const toml::table* table = node.as_table();
+      if (!table) r.fail(node, "[parameters." + solver + "] must be a table");
+      const SolverInfo& info = solver_info(solver);
+      std::set<std::string> valid;
+      for (const ParameterInfo& pi : info.parameters) valid.insert(pi.name);
+      r.only(*table, valid, "[parameters." + solver + "]");
+      for (auto&& [pkey, pnode] : *table)
+        it->parameters[std::string(pkey.str())] = r.list(pnode, [&](const toml::node& v) {
+          return r.scalar(v, "parameters." + solver + "." + std::string(pkey.str()));
+        });
+    }
+  }
+
+  if (const toml::table* im = root["images"].as_table()) {
+    r.only(*im, {"steps", "width", "height", "error_maps"}, "[images]");
+    if (auto n = (*im)["steps"])
+      spec.images.steps =
+          r.list(*n.node(), [&](const toml::node& v) { return r.integer(v, "images.steps"); });
+    if (auto n = (*im)["width"]) spec.images.width = int(r.integer(*n.node(), "images.width"));
+    if (auto n = (*im)["height"]) spec.images.height = int(r.integer(*n.node(), "images.height"));
+    if (auto n = (*im)["error_maps"]) {
+      auto v = n.value<bool>();
+      if (!v) r.fail(*n.node(), "images.error_maps must be true or false");
+      spec.images.error_maps = *v;
+    }
+    if (spec.images.width < 8 || spec.images.height < 8 || spec.images.width > 8192 ||
+        spec.images.height > 8192)
+      throw InputError(path + ": [images] width and height must lie in [8, 8192]");
+  }
+  return spec;
+}
+
+namespace {
+
+std::string scene_label(const std::string& scene) {
+  if (text::starts_with(scene, "builtin:")) return scene.substr(8);
+  return std::filesystem::path(scene).stem().string();
+}
+
+// All combinations of the parameter axes, keys in order.
+std::vector<std::map<std::string, std::string>> combinations(
+    const std::map<std::string, std::vector<std::string>>& axes) {
+  std::vector<std::map<std::string, std::string>> out = {{}};
+  for (const auto& [key, values] : axes) {
+    std::vector<std::map<std::string, std::string>> next;
+    for (const auto& partial : out)
+      for (const std::string& v : values) {
+        auto m = partial;
+        m[key] = v;
+        next.push_back(std::move(m));
+      }
+    out = std::move(next);
+  }
+  return out;
+}
+
+}  // namespace
+
+SweepPlan plan_sweep(const ExperimentSpec& spec) {
+  SweepPlan plan;
+  const std::vector<long long> seeds =
+      spec.seeds.empty() ? std::vector<long long>{-1} : spec.seeds;  // -1: method default
+  for (const std::string& scene : spec.scenes)
+    for (const MeshOptions& mesh : spec.meshes)
+      for (long long seed : seeds) {
+        PlannedProblem problem;
+        problem.spec.scene = scene;
+        problem.spec.mesh = mesh;
+        problem.spec.ff_method = spec.ff_method;
+        for (const auto& [k, v] : spec.ff_parameters) problem.spec.ff_set.push_back(k + "=" + v);
+        if (seed >= 0) problem.spec.ff_set.push_back("seed=" + std::to_string(seed));
+        problem.spec.precision = spec.precision;
+        problem.spec.row_mode = spec.row_mode;
+        problem.label = "scene:" + scene_label(scene);
+        if (spec.meshes.size() > 1)
+          problem.label += mesh.element_size > 0
+                               ? "/element_size:" + text::format_double(mesh.element_size)
+                               : "/subdiv:" + std::to_string(mesh.subdivisions);
+        if (seeds.size() > 1) problem.label += "/seed:" + std::to_string(seed);
+        plan.problems.push_back(problem);
+        const size_t problem_index = plan.problems.size() - 1;
+        for (const SolverSweep& solver : spec.solvers)
+          for (const auto& parameters : combinations(solver.parameters)) {
+            PlannedRun run;
+            run.index = plan.runs.size();
+            run.problem = problem_index;
+            run.solver = solver.name;
+            run.parameters = parameters;
+            run.run_id = solver.name + "/" + problem.label;
+            for (const auto& [k, v] : parameters) run.run_id += "/" + k + ":" + v;
+            plan.runs.push_back(std::move(run));
+          }
+      }
+  return plan;
+}
+
+}  // namespace radlab

@@ -1,0 +1,41 @@
+// Images of a run at chosen checkpoints: the display solution (EXR + tone-mapped PNG) seen from
+// the scene's camera (or a default view), and error maps against the reference — Cohen 1988's
+// pseudo-colour (grey exact, blue under-estimate, red over-estimate) and the signed p-error of
+// Wu & Wang — as EXR and PNG. scripts/contact_sheet.py tiles them into a methods x steps sheet.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "experiments/experiment_spec.h"
+#include "experiments/problem.h"
+#include "render/image.h"
+#include "solvers/solver.h"
+
+namespace radlab {
+
+class EmbreeScene;
+
+class ImageMaker {
+ public:
+  ImageMaker(const Problem& problem, const ImageSpec& spec);
+  ~ImageMaker();
+  ImageMaker(const ImageMaker&) = delete;
+  ImageMaker& operator=(const ImageMaker&) = delete;
+
+  // Writes STEM_stepNNNNNN{.exr,.png,_cohen.exr,_cohen.png,_perror.exr,_perror.png}.
+  void save(const Solver& solver, long long step, const std::string& stem) const;
+
+  // The reference rendered once, with the exposure every other image of this problem uses (so
+  // brightness compares across methods and steps).
+  double exposure() const { return exposure_; }
+
+ private:
+  const Problem& problem_;
+  ImageSpec spec_;
+  std::unique_ptr<EmbreeScene> embree_;
+  Camera camera_;
+  double exposure_ = 1.0;
+};
+
+}  // namespace radlab

@@ -1,0 +1,87 @@
+#include "experiments/summary.h"
+
+#include <cmath>
+
+#include "metrics/convergence_fit.h"
+
+namespace radlab {
+
+const std::vector<std::string>& summary_columns() {
+  static const std::vector<std::string> columns = {
+      "run_index", "run_id", "scene", "solver", "params", "elements", "channels", "steps",
+      "ff_rows", "seconds", "stop_reason", "rms_rel", "p_mean", "p_max", "rms_rel_display",
+      "p_mean_display", "bound_relative",
+      "rows_to_rms_rel_1e-1", "seconds_to_rms_rel_1e-1",
+      "rows_to_rms_rel_1e-2", "seconds_to_rms_rel_1e-2",
+      "rows_to_rms_rel_1e-3", "seconds_to_rms_rel_1e-3",
+      "rows_to_p_mean_1e-2", "seconds_to_p_mean_1e-2",
+      "fit_points", "fit_rate_per_row", "fit_rate_per_row_sigma", "fit_rows_per_decade",
+      "fit_rows_to_rms_rel_1e-6", "fit_rows_to_rms_rel_1e-6_sigma", "fit_seconds_per_decade",
+      "fit_seconds_to_rms_rel_1e-6",
+      "fit_rate_per_sweep", "spectral_radius"};
+  return columns;
+}
+
+const std::vector<std::string>& summary_time_columns() {
+  static const std::vector<std::string> columns = {
+      "seconds", "seconds_to_rms_rel_1e-1", "seconds_to_rms_rel_1e-2", "seconds_to_rms_rel_1e-3",
+      "seconds_to_p_mean_1e-2", "fit_seconds_per_decade", "fit_seconds_to_rms_rel_1e-6",
+      "stop_reason"};  // a time budget makes the stop reason machine-dependent too
+  return columns;
+}
+
+double first_reach(const std::vector<CheckpointRecord>& history, double threshold, bool by_rows,
+                   bool p_mean) {
+  auto value = [&](const CheckpointRecord& r) { return p_mean ? r.p_mean : r.rms_rel; };
+  auto x = [&](const CheckpointRecord& r) { return by_rows ? double(r.rows) : r.seconds; };
+  for (size_t k = 0; k < history.size(); ++k) {
+    const double v = value(history[k]);
+    if (!(v <= threshold)) continue;
+    if (k == 0) return x(history[0]);
+    const double v0 = value(history[k - 1]);
+    if (!(v0 > 0) || !(v > 0)) return x(history[k]);
+    // Linear in log(error) between the two checkpoints.
+    const double t = (std::log(v0) - std::log(threshold)) / (std::log(v0) - std::log(v));
+    return x(history[k - 1]) + t * (x(history[k]) - x(history[k - 1]));
+  }
+  return std::nan("");
+}
+
+void write_summary_row(CsvWriter& csv, const SummaryInputs& in, const RunResult& r) {
+  const double nan = std::nan("");
+  csv.add(in.run_index).add(in.labels.run_id).add(in.labels.scene).add(in.labels.solver);
+  csv.add(in.labels.params).add(in.elements).add(in.channels).add(r.steps).add(r.rows);
+  csv.add(r.seconds).add(r.stop_reason);
+  csv.add(r.final_errors.rms_rel).add(r.final_errors.p_mean).add(r.final_errors.p_max);
+  csv.add(r.final_display_errors.rms_rel).add(r.final_display_errors.p_mean);
+  csv.add(r.final_bound_relative);
+  for (double threshold : {1e-1, 1e-2, 1e-3}) {
+    csv.add(first_reach(r.history, threshold, true, false));
+    csv.add(first_reach(r.history, threshold, false, false));
+  }
+  csv.add(first_reach(r.history, 1e-2, true, true));
+  csv.add(first_reach(r.history, 1e-2, false, true));
+
+  std::vector<double> rows, seconds, error;
+  for (const CheckpointRecord& c : r.history) {
+    if (c.step == 0) continue;  // the initial state is not part of the convergence
+    rows.push_back(double(c.rows));
+    seconds.push_back(c.seconds);
+    error.push_back(c.rms_rel);
+  }
+  const ConvergenceFit by_rows = fit_convergence(rows, error, 1e-6);
+  const ConvergenceFit by_seconds = fit_convergence(seconds, error, 1e-6);
+  csv.add(by_rows.points);
+  csv.add(by_rows.valid ? by_rows.rate : nan);
+  csv.add(by_rows.valid ? by_rows.rate * by_rows.log_rate_sigma : nan);  // sigma of exp(b)
+  csv.add(by_rows.valid ? -std::log(10.0) / by_rows.log_rate : nan);
+  csv.add(by_rows.valid ? by_rows.x_to_tolerance : nan);
+  csv.add(by_rows.valid ? by_rows.x_to_tolerance_sigma : nan);
+  csv.add(by_seconds.valid ? -std::log(10.0) / by_seconds.log_rate : nan);
+  csv.add(by_seconds.valid ? by_seconds.x_to_tolerance : nan);
+  csv.add(by_rows.valid && in.gathering ? std::exp(by_rows.log_rate * double(in.elements)) : nan);
+  csv.add(in.spectral_radius);
+  csv.end_row();
+}
+
+}  // namespace radlab

@@ -1,0 +1,34 @@
+// summary.csv: one row per run (DESIGN §7): final errors, the rows and seconds needed to reach
+// rms_rel 1e-1/1e-2/1e-3 and p_mean 1e-2, and the Ceres-fitted convergence rate. For gathering
+// solvers the fitted per-sweep rate sits beside the spectral radius of diag(rho)F.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/csv.h"
+#include "experiments/runner.h"
+
+namespace radlab {
+
+const std::vector<std::string>& summary_columns();
+// Columns whose values depend on the machine's speed (left out when comparing re-runs).
+const std::vector<std::string>& summary_time_columns();
+
+struct SummaryInputs {
+  size_t run_index = 0;
+  RunLabels labels;
+  size_t elements = 0;
+  int channels = 1;
+  bool gathering = false;         // one step = one gather: a sweep is n steps
+  double spectral_radius = 0.0;   // of diag(rho)F, worst channel (NaN if not estimated)
+};
+
+// The x at which a decreasing trace first reaches `threshold`, interpolated linearly in
+// log(error) between the bracketing checkpoints (NaN if never reached).
+double first_reach(const std::vector<CheckpointRecord>& history, double threshold, bool by_rows,
+                   bool p_mean);
+
+void write_summary_row(CsvWriter& csv, const SummaryInputs& in, const RunResult& result);
+
+}  // namespace radlab

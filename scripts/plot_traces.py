@@ -1,0 +1,125 @@
+#!/usr/bin/env python3
+"""Convergence plots from a radlab trace (Debian's python3-matplotlib, numpy, pandas).
+
+Usage: plot_traces.py OUT_DIR [--formats png,pdf]
+
+Reads OUT_DIR/trace.csv (and sweep.json for the title) and writes into OUT_DIR/plots/:
+  <scene>_rms_rel_vs_rows, <scene>_rms_rel_vs_seconds, <scene>_p_mean_vs_rows,
+  <scene>_p_mean_vs_seconds   one line per run, log y; solid = solution(), dashed = display()
+                              when it differs (e.g. Cohen's ambient term);
+  <scene>_p_channels          per-channel p-error panels (Wu & Wang 2002, Figs 1 and 3), RGB scenes.
+Each figure is titled with the scene, the mesh size and the form-factor settings of the runs.
+"""
+import argparse
+import json
+import os
+import sys
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+
+def label_of(run_id, scene_label):
+    """The run id without the scene part: solver and its parameters."""
+    parts = [p for p in run_id.split("/") if not p.startswith("scene:")]
+    return "/".join(parts) if parts else run_id
+
+
+def positive(series):
+    values = series.to_numpy(dtype=float)
+    values[~(values > 0)] = np.nan  # log axes: hide zeros (exact) and missing values
+    return values
+
+
+def plot_metric(runs, metric, x, title, path_stem, formats):
+    fig, ax = plt.subplots(figsize=(7.5, 4.8))
+    for i, (run_id, data) in enumerate(runs):
+        colour = f"C{i % 10}"
+        label = label_of(run_id, "")
+        ax.plot(data[x], positive(data[metric]), color=colour, lw=1.4, label=label)
+        display = f"{metric}_display"
+        if display in data and not np.allclose(
+            data[display].fillna(-1), data[metric].fillna(-1), rtol=1e-12, atol=0
+        ):
+            ax.plot(data[x], positive(data[display]), color=colour, lw=1.0, ls="--",
+                    label=f"{label} (display)")
+    ax.set_yscale("log")
+    ax.set_xlabel({"ff_rows": "form-factor rows (hemicubes)", "seconds": "solver seconds"}[x])
+    ax.set_ylabel({"rms_rel": "relative RMS error (Cohen eq. 14)",
+                   "p_mean": "mean |p-error| (Wu & Wang)"}[metric])
+    ax.set_title(title, fontsize=10)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7, loc="best")
+    fig.tight_layout()
+    for fmt in formats:
+        fig.savefig(f"{path_stem}.{fmt}", dpi=130)
+    plt.close(fig)
+
+
+def plot_channels(runs, title, path_stem, formats):
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4.2), sharey=True)
+    for ax, channel, name in zip(axes, ["r", "g", "b"], ["red", "green", "blue"]):
+        for i, (run_id, data) in enumerate(runs):
+            ax.plot(data["ff_rows"], positive(data[channel]), color=f"C{i % 10}", lw=1.3,
+                    label=label_of(run_id, ""))
+        ax.set_yscale("log")
+        ax.set_title(f"{name} channel", fontsize=10)
+        ax.set_xlabel("form-factor rows")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].set_ylabel("mean |p-error|")
+    axes[0].legend(fontsize=7)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    for fmt in formats:
+        fig.savefig(f"{path_stem}.{fmt}", dpi=130)
+    plt.close(fig)
+
+
+def main(argv):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out_dir")
+    parser.add_argument("--formats", default="png,pdf")
+    args = parser.parse_args(argv)
+    formats = [f for f in args.formats.split(",") if f]
+    trace_path = os.path.join(args.out_dir, "trace.csv")
+    if not os.path.exists(trace_path):
+        sys.exit(f"plot_traces: {trace_path}: no such file")
+    trace = pd.read_csv(trace_path)
+    if trace.empty:
+        sys.exit(f"plot_traces: {trace_path}: no rows")
+    name = os.path.basename(os.path.normpath(args.out_dir))
+    sweep_path = os.path.join(args.out_dir, "sweep.json")
+    if os.path.exists(sweep_path):
+        with open(sweep_path) as f:
+            name = json.load(f).get("name", name)
+    plots = os.path.join(args.out_dir, "plots")
+    os.makedirs(plots, exist_ok=True)
+    written = []
+    for scene, scene_rows in trace.groupby("scene", sort=False):
+        safe = scene.replace("builtin:", "").replace("/", "_").replace(":", "_").replace(",", "_")
+        mean = scene_rows[scene_rows["channel"] == "mean"]
+        runs = list(mean.groupby("run_id", sort=False))
+        title = f"{name}: {scene}"
+        for metric in ["rms_rel", "p_mean"]:
+            for x in ["ff_rows", "seconds"]:
+                stem = os.path.join(plots, f"{safe}_{metric}_vs_{'rows' if x == 'ff_rows' else x}")
+                plot_metric(runs, metric, x, title, stem, formats)
+                written.append(stem)
+        channels = scene_rows[scene_rows["channel"].isin(["r", "g", "b"])]
+        if not channels.empty:
+            wide = channels.pivot_table(index=["run_id", "step", "ff_rows"], columns="channel",
+                                        values="p_mean", sort=False).reset_index()
+            channel_runs = list(wide.groupby("run_id", sort=False))
+            stem = os.path.join(plots, f"{safe}_p_channels")
+            plot_channels(channel_runs, title + " (per channel, Wu & Wang Figs 1/3)", stem, formats)
+            written.append(stem)
+    for stem in written:
+        print(f"wrote {stem}.{{{','.join(formats)}}}")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

@@ -1,0 +1,419 @@
+#include "solvers/kernels.h"
+
+#include <atomic>
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+// The AVX2 versions use GCC/Clang vector extensions inside functions compiled for AVX2 only;
+// their 32-byte vector values never cross a call boundary (every helper is always_inline), so
+// GCC's note about the AVX calling convention does not apply.
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define RADLAB_HAVE_AVX2_KERNELS 1
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic ignored "-Wpsabi"
+#endif
+#include <immintrin.h>
+#endif
+
+namespace radlab::kernels {
+namespace {
+
+constexpr size_t kLanes = 16;      // sums are kept in 16 lanes: lane = j mod 16
+constexpr size_t kBlock = 64;      // shots find the maximum per block of 64, then inside the block
+constexpr size_t kPrefetch = 512;  // elements ahead in the row (2 KB of floats)
+
+// The one way 16 lane sums become a total, shared by both versions.
+inline double combine(double* s) {
+  for (size_t w = kLanes / 2; w >= 1; w /= 2)
+    for (size_t q = 0; q < w; ++q) s[q] += s[q + w];
+  return s[0];
+}
+
+template <bool kClamp>
+inline double clamped(double v) {
+  if constexpr (kClamp) return v > 0.0 ? v : 0.0;
+  return v;
+}
+
+// ------------------------------------------------------------------------------------------
+// Scalar versions: the definition of the arithmetic.
+
+template <class T, int C, bool kClamp>
+void gather_scalar(const T* F, size_t n, const double* const* x, double* out) {
+  double s[C][kLanes] = {};
+  for (size_t j = 0; j < n; ++j) {
+    const double f = double(F[j]);
+    for (int c = 0; c < C; ++c) s[c][j % kLanes] += f * clamped<kClamp>(x[c][j]);
+  }
+  for (int c = 0; c < C; ++c) out[c] = combine(s[c]);
+}
+
+template <class T, int C>
+void gather_scatter_scalar(const T* F, size_t n, const double* const* x, double* out,
+                           double* const* z, const double* a) {
+  double s[C][kLanes] = {};
+  for (size_t j = 0; j < n; ++j) {
+    const double f = double(F[j]);
+    for (int c = 0; c < C; ++c) {
+      s[c][j % kLanes] += f * x[c][j];
+      z[c][j] += a[c] * f;
+    }
+  }
+  for (int c = 0; c < C; ++c) out[c] = combine(s[c]);
+}
+
+// The priority of element j after its update, in the order both versions use.
+template <int C>
+inline double priority(const ShotTargets& t, size_t j) {
+  double p = 0.0;
+  for (int c = 0; c < C; ++c) p += std::fabs(t.unshot[c][j]);
+  return p * t.area[j];
+}
+
+template <class T, int C, bool kSelect, bool kCoverage>
+Argmax shoot_scalar(const T* F, size_t lo, size_t hi, const double* k, double coverage_scale,
+                    const ShotTargets& t) {
+  Argmax best;
+  for (size_t j = lo; j < hi; ++j) {
+    const double f = double(F[j]);
+    for (int c = 0; c < C; ++c) t.unshot[c][j] += (f * k[c]) * t.weight[c][j];
+    if constexpr (kCoverage) t.coverage[j] += (f * coverage_scale) * t.inverse_area[j];
+    if constexpr (kSelect) {
+      const double p = priority<C>(t, j);
+      if (p > best.value) best = {p, j};
+    }
+  }
+  return best;
+}
+
+// ------------------------------------------------------------------------------------------
+// AVX2 versions.
+
+#ifdef RADLAB_HAVE_AVX2_KERNELS
+typedef double v4d __attribute__((vector_size(32)));
+typedef long long v4i __attribute__((vector_size(32)));
+
+#define RADLAB_AVX2 __attribute__((target("avx2")))
+#define RADLAB_AVX2_INLINE __attribute__((target("avx2"), always_inline)) inline
+
+RADLAB_AVX2_INLINE v4d load(const double* p) {
+  v4d v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+RADLAB_AVX2_INLINE v4d load(const float* p) {
+  return _mm256_cvtps_pd(_mm_loadu_ps(p));
+}
+RADLAB_AVX2_INLINE void store(double* p, v4d v) {
+  std::memcpy(p, &v, sizeof v);
+}
+RADLAB_AVX2_INLINE v4d splat(double x) {
+  return v4d{x, x, x, x};
+}
+RADLAB_AVX2_INLINE v4d vabs(v4d v) {
+  constexpr long long kAllButSign = std::numeric_limits<long long>::max();
+  const v4i mask = {kAllButSign, kAllButSign, kAllButSign, kAllButSign};
+  v4i bits;
+  std::memcpy(&bits, &v, sizeof bits);
+  bits &= mask;
+  std::memcpy(&v, &bits, sizeof v);
+  return v;
+}
+// max(a, b) as MAXPD computes it: a if a > b, else b; a NaN in a is ignored, like the scalar
+// selection's `p > best`.
+RADLAB_AVX2_INLINE v4d vmax(v4d a, v4d b) {
+  return _mm256_max_pd(a, b);
+}
+template <bool kClamp>
+RADLAB_AVX2_INLINE v4d vclamped(v4d v) {
+  if constexpr (kClamp) return v > splat(0.0) ? v : splat(0.0);
+  return v;
+}
+
+template <class T, int C, bool kClamp>
+RADLAB_AVX2 void gather_avx2(const T* F, size_t n, const double* const* x, double* out) {
+  v4d acc[C][4];
+  for (int c = 0; c < C; ++c)
+    for (int q = 0; q < 4; ++q) acc[c][q] = splat(0.0);
+  size_t j = 0;
+  for (; j + kLanes <= n; j += kLanes) {
+    __builtin_prefetch(F + j + kPrefetch);
+    v4d f[4];
+    for (int q = 0; q < 4; ++q) f[q] = load(F + j + 4 * q);
+    for (int c = 0; c < C; ++c)
+      for (int q = 0; q < 4; ++q) acc[c][q] += f[q] * vclamped<kClamp>(load(x[c] + j + 4 * q));
+  }
+  double s[C][kLanes];
+  for (int c = 0; c < C; ++c)
+    for (int q = 0; q < 4; ++q) std::memcpy(&s[c][4 * q], &acc[c][q], sizeof(v4d));
+  for (; j < n; ++j) {
+    const double f = double(F[j]);
+    for (int c = 0; c < C; ++c) s[c][j % kLanes] += f * clamped<kClamp>(x[c][j]);
+  }
+  for (int c = 0; c < C; ++c) out[c] = combine(s[c]);
+}
+
+template <class T, int C>
+RADLAB_AVX2 void gather_scatter_avx2(const T* F, size_t n, const double* const* x_in, double* out,
+                                     double* const* z_in, const double* a) {
+  // Local copies of the channel pointers (see Lanes below).
+  const double* x[C];
+  double* z[C];
+  for (int c = 0; c < C; ++c) {
+    x[c] = x_in[c];
+    z[c] = z_in[c];
+  }
+  v4d acc[C][4];
+  v4d ak[C];
+  for (int c = 0; c < C; ++c) {
+    ak[c] = splat(a[c]);
+    for (int q = 0; q < 4; ++q) acc[c][q] = splat(0.0);
+  }
+  size_t j = 0;
+  for (; j + kLanes <= n; j += kLanes) {
+    __builtin_prefetch(F + j + kPrefetch);
+    v4d f[4];
+    for (int q = 0; q < 4; ++q) f[q] = load(F + j + 4 * q);
+    for (int c = 0; c < C; ++c)
+      for (int q = 0; q < 4; ++q) {
+        acc[c][q] += f[q] * load(x[c] + j + 4 * q);
+        store(z[c] + j + 4 * q, load(z[c] + j + 4 * q) + ak[c] * f[q]);
+      }
+  }
+  double s[C][kLanes];
+  for (int c = 0; c < C; ++c)
+    for (int q = 0; q < 4; ++q) std::memcpy(&s[c][4 * q], &acc[c][q], sizeof(v4d));
+  for (; j < n; ++j) {
+    const double f = double(F[j]);
+    for (int c = 0; c < C; ++c) {
+      s[c][j % kLanes] += f * x[c][j];
+      z[c][j] += a[c] * f;
+    }
+  }
+  for (int c = 0; c < C; ++c) out[c] = combine(s[c]);
+}
+
+// The arrays of one shot, copied out of ShotTargets: the vector stores (memcpy) may alias any
+// memory, so pointers read through a reference would be reloaded after every store.
+template <int C>
+struct Lanes {
+  double* u[C];
+  const double* w[C];
+  const double* area;
+  double* coverage;
+  const double* inverse_area;
+  explicit Lanes(const ShotTargets& t)
+      : area(t.area), coverage(t.coverage), inverse_area(t.inverse_area) {
+    for (int c = 0; c < C; ++c) {
+      u[c] = t.unshot[c];
+      w[c] = t.weight[c];
+    }
+  }
+};
+
+// Updates 4 receivers starting at j; returns their priorities (if kSelect).
+template <class T, int C, bool kSelect, bool kCoverage>
+RADLAB_AVX2_INLINE v4d shoot4(const T* F, size_t j, const v4d* k, v4d coverage_scale,
+                              const Lanes<C>& l) {
+  const v4d f = load(F + j);
+  v4d p;
+  for (int c = 0; c < C; ++c) {
+    const v4d v = load(l.u[c] + j) + (f * k[c]) * load(l.w[c] + j);
+    store(l.u[c] + j, v);
+    if constexpr (kSelect) p = c == 0 ? vabs(v) : p + vabs(v);  // = 0 + |v_0| + ...
+  }
+  if constexpr (kCoverage)
+    store(l.coverage + j, load(l.coverage + j) + (f * coverage_scale) * load(l.inverse_area + j));
+  if constexpr (kSelect) return p * load(l.area + j);
+  return splat(0.0);
+}
+
+template <class T, int C, bool kSelect, bool kCoverage>
+RADLAB_AVX2 Argmax shoot_avx2(const T* F, size_t lo, size_t hi, const double* k,
+                              double coverage_scale, const ShotTargets& t) {
+  const Lanes<C> l(t);
+  v4d kv[C];
+  for (int c = 0; c < C; ++c) kv[c] = splat(k[c]);
+  const v4d cs = splat(coverage_scale);
+  double best_value = -1.0;
+  size_t best_block = kNone;
+  size_t b = lo;
+  for (; b + kBlock <= hi; b += kBlock) {
+    v4d m0 = splat(-1.0), m1 = splat(-1.0);
+    for (size_t j = b; j < b + kBlock; j += 8) {
+      __builtin_prefetch(F + j + kPrefetch);
+      const v4d p0 = shoot4<T, C, kSelect, kCoverage>(F, j, kv, cs, l);
+      const v4d p1 = shoot4<T, C, kSelect, kCoverage>(F, j + 4, kv, cs, l);
+      if constexpr (kSelect) {
+        m0 = vmax(p0, m0);
+        m1 = vmax(p1, m1);
+      }
+    }
+    if constexpr (kSelect) {
+      const v4d m = vmax(m0, m1);
+      const double mm = std::fmax(std::fmax(m[0], m[1]), std::fmax(m[2], m[3]));
+      if (mm > best_value) {
+        best_value = mm;
+        best_block = b;
+      }
+    }
+  }
+  Argmax best;
+  if constexpr (kSelect) {
+    if (best_block != kNone) {  // the first element of the block holding the block's maximum
+      for (size_t j = best_block; j < best_block + kBlock; ++j)
+        if (priority<C>(t, j) == best_value) {
+          best = {best_value, j};
+          break;
+        }
+    }
+  }
+  const Argmax tail = shoot_scalar<T, C, kSelect, kCoverage>(F, b, hi, k, coverage_scale, t);
+  if (tail.value > best.value) best = tail;
+  return best;
+}
+#endif  // RADLAB_HAVE_AVX2_KERNELS
+
+bool detect_avx2() {
+#ifdef RADLAB_HAVE_AVX2_KERNELS
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx2");
+#else
+  return false;
+#endif
+}
+
+std::atomic<bool>& vector_enabled() {
+  static std::atomic<bool> enabled{detect_avx2()};
+  return enabled;
+}
+
+// ------------------------------------------------------------------------------------------
+// Dispatch on channels and instruction set.
+
+template <class T, bool kClamp>
+void gather_dispatch(const T* F, const Radiosity& x, double* out) {
+  const size_t n = x.size();
+  const double* ptr[3] = {x.channel(0).data(), nullptr, nullptr};
+  if (x.channels() == 3) {
+    ptr[1] = x.channel(1).data();
+    ptr[2] = x.channel(2).data();
+  }
+#ifdef RADLAB_HAVE_AVX2_KERNELS
+  if (vector_enabled().load(std::memory_order_relaxed)) {
+    if (x.channels() == 1) return gather_avx2<T, 1, kClamp>(F, n, ptr, out);
+    return gather_avx2<T, 3, kClamp>(F, n, ptr, out);
+  }
+#endif
+  if (x.channels() == 1) return gather_scalar<T, 1, kClamp>(F, n, ptr, out);
+  return gather_scalar<T, 3, kClamp>(F, n, ptr, out);
+}
+
+template <class T>
+void gather_scatter_dispatch(const T* F, const Radiosity& x, double* out, Radiosity& z,
+                             const double* a) {
+  const size_t n = x.size();
+  const double* xp[3] = {x.channel(0).data(), nullptr, nullptr};
+  double* zp[3] = {z.channel(0).data(), nullptr, nullptr};
+  if (x.channels() == 3)
+    for (int c = 1; c < 3; ++c) {
+      xp[c] = x.channel(c).data();
+      zp[c] = z.channel(c).data();
+    }
+#ifdef RADLAB_HAVE_AVX2_KERNELS
+  if (vector_enabled().load(std::memory_order_relaxed)) {
+    if (x.channels() == 1) return gather_scatter_avx2<T, 1>(F, n, xp, out, zp, a);
+    return gather_scatter_avx2<T, 3>(F, n, xp, out, zp, a);
+  }
+#endif
+  if (x.channels() == 1) return gather_scatter_scalar<T, 1>(F, n, xp, out, zp, a);
+  return gather_scatter_scalar<T, 3>(F, n, xp, out, zp, a);
+}
+
+template <class T, int C, bool kSelect, bool kCoverage>
+Argmax shoot_isa(const T* F, size_t lo, size_t hi, const double* k, double cs,
+                 const ShotTargets& t) {
+#ifdef RADLAB_HAVE_AVX2_KERNELS
+  if (vector_enabled().load(std::memory_order_relaxed))
+    return shoot_avx2<T, C, kSelect, kCoverage>(F, lo, hi, k, cs, t);
+#endif
+  return shoot_scalar<T, C, kSelect, kCoverage>(F, lo, hi, k, cs, t);
+}
+
+template <class T, int C>
+Argmax shoot_flags(const T* F, size_t lo, size_t hi, const double* k, double cs,
+                   const ShotTargets& t, bool select) {
+  const bool coverage = t.coverage != nullptr;
+  if (select)
+    return coverage ? shoot_isa<T, C, true, true>(F, lo, hi, k, cs, t)
+                    : shoot_isa<T, C, true, false>(F, lo, hi, k, cs, t);
+  return coverage ? shoot_isa<T, C, false, true>(F, lo, hi, k, cs, t)
+                  : shoot_isa<T, C, false, false>(F, lo, hi, k, cs, t);
+}
+
+template <class T>
+Argmax shoot_dispatch(const T* F, size_t lo, size_t hi, const double* k, double cs,
+                      const ShotTargets& t, bool select) {
+  if (lo >= hi) return {};
+  if (t.channels == 1) return shoot_flags<T, 1>(F, lo, hi, k, cs, t, select);
+  return shoot_flags<T, 3>(F, lo, hi, k, cs, t, select);
+}
+
+}  // namespace
+
+void gather(const float* F, const Radiosity& x, double* out, bool clamp_negative) {
+  if (clamp_negative) return gather_dispatch<float, true>(F, x, out);
+  gather_dispatch<float, false>(F, x, out);
+}
+void gather(const double* F, const Radiosity& x, double* out, bool clamp_negative) {
+  if (clamp_negative) return gather_dispatch<double, true>(F, x, out);
+  gather_dispatch<double, false>(F, x, out);
+}
+
+void gather_scatter(const float* F, const Radiosity& x, double* out, Radiosity& z,
+                    const double* a) {
+  gather_scatter_dispatch(F, x, out, z, a);
+}
+void gather_scatter(const double* F, const Radiosity& x, double* out, Radiosity& z,
+                    const double* a) {
+  gather_scatter_dispatch(F, x, out, z, a);
+}
+
+Argmax shoot(const float* F, size_t lo, size_t hi, const double* k, double coverage_scale,
+             const ShotTargets& targets, bool select) {
+  return shoot_dispatch(F, lo, hi, k, coverage_scale, targets, select);
+}
+Argmax shoot(const double* F, size_t lo, size_t hi, const double* k, double coverage_scale,
+             const ShotTargets& targets, bool select) {
+  return shoot_dispatch(F, lo, hi, k, coverage_scale, targets, select);
+}
+
+Argmax max_priority(size_t lo, size_t hi, const ShotTargets& t) {
+  Argmax best;
+  for (size_t j = lo; j < hi; ++j) {
+    const double p = t.channels == 1 ? priority<1>(t, j) : priority<3>(t, j);
+    if (p > best.value) best = {p, j};
+  }
+  return best;
+}
+
+void unshot_power(const ShotTargets& t, size_t n, bool clamp_negative, double* out) {
+  for (int c = 0; c < t.channels; ++c) {
+    double s[kLanes] = {};
+    const double* u = t.unshot[c];
+    if (clamp_negative)
+      for (size_t j = 0; j < n; ++j) s[j % kLanes] += t.area[j] * clamped<true>(u[j]);
+    else
+      for (size_t j = 0; j < n; ++j) s[j % kLanes] += t.area[j] * u[j];
+    out[c] = combine(s);
+  }
+}
+
+bool use_vector_kernels(bool enable) {
+  const bool available = detect_avx2();
+  vector_enabled().store(enable && available);
+  return enable && available;
+}
+
+}  // namespace radlab::kernels

@@ -1,0 +1,120 @@
+#include "solvers/shooting_core.h"
+
+#include <cmath>
+
+namespace radlab {
+
+void ShootingCore::init(const System& system) {
+  system_ = &system;
+  const size_t n = system.size();
+  const int channels = system.channels();
+  x_ = Radiosity(channels, n);
+  dB_ = system.emission();
+  weight_ = Radiosity(channels, n);
+  for (int c = 0; c < channels; ++c)
+    for (size_t j = 0; j < n; ++j)
+      weight_.at(c, j) = system.reflectance().at(c, j) * system.inverse_area()[j];
+  dirty_ = true;
+}
+
+kernels::ShotTargets ShootingCore::targets() const {
+  kernels::ShotTargets t;
+  t.channels = channels();
+  // The kernels write through these pointers only in shoot(), a non-const member.
+  auto& self = const_cast<ShootingCore&>(*this);
+  for (int c = 0; c < channels(); ++c) {
+    t.unshot[c] = self.dB_.channel(c).data();
+    t.weight[c] = weight_.channel(c).data();
+  }
+  t.area = system_->area().data();
+  t.inverse_area = system_->inverse_area().data();
+  return t;
+}
+
+template <class T>
+kernels::Argmax ShootingCore::shoot(const T* F, size_t i, const double* s, bool select,
+                                    double* coverage) {
+  const size_t n = size();
+  const double Ai = system_->area()[i];
+  double k[3] = {0.0, 0.0, 0.0};
+  for (int c = 0; c < channels(); ++c) k[c] = Ai * s[c];
+  kernels::ShotTargets t = targets();
+  t.coverage = coverage;
+  const kernels::Argmax before = kernels::shoot(F, 0, i, k, Ai, t, select);
+  const kernels::Argmax after = kernels::shoot(F, i + 1, n, k, Ai, t, select);
+  // The shooter: its self term (zero for planar elements), then its own books.
+  const double f = double(F[i]);
+  for (int c = 0; c < channels(); ++c) {
+    double& u = dB_.at(c, i);
+    u += (f * k[c]) * weight_.at(c, i);
+    u -= s[c];
+    x_.at(c, i) += s[c];
+  }
+  dirty_ = true;
+  if (!select) return {};
+  // Ties go to the lowest index: the elements before i, then i, then those after.
+  kernels::Argmax best = before;
+  const double own = priority(i);
+  if (own > best.value) best = {own, i};
+  if (after.value > best.value) best = after;
+  return best;
+}
+
+template kernels::Argmax ShootingCore::shoot(const float*, size_t, const double*, bool, double*);
+template kernels::Argmax ShootingCore::shoot(const double*, size_t, const double*, bool, double*);
+
+double ShootingCore::priority(size_t j) const {
+  double p = 0.0;
+  for (int c = 0; c < channels(); ++c) p += std::fabs(dB_.at(c, j));
+  return p * system_->area()[j];
+}
+
+bool ShootingCore::all_shot() const {
+  for (double v : dB_.raw())
+    if (v != 0.0) return false;
+  return true;
+}
+
+kernels::Argmax ShootingCore::first_unshot() const {
+  for (size_t j = 0; j < size(); ++j)
+    for (int c = 0; c < channels(); ++c)
+      if (dB_.at(c, j) != 0.0) return {0.0, j};
+  return {};
+}
+
+void ShootingCore::unshot_power(bool clamp_negative, double* out) const {
+  kernels::unshot_power(targets(), size(), clamp_negative, out);
+}
+
+const Radiosity& ShootingCore::solution() const {
+  if (dirty_) {
+    if (B_.size() != x_.size() || B_.channels() != x_.channels()) B_ = x_;
+    auto b = B_.raw();
+    auto x = x_.raw();
+    auto u = dB_.raw();
+    for (size_t k = 0; k < b.size(); ++k) b[k] = x[k] + u[k];
+    dirty_ = false;
+  }
+  return B_;
+}
+
+std::vector<double> average_reflectance(const System& system) {
+  std::vector<double> rho(size_t(system.channels()), 0.0);
+  for (int c = 0; c < system.channels(); ++c) {
+    double s = 0.0;
+    for (size_t j = 0; j < system.size(); ++j)
+      s += system.area()[j] * system.reflectance().at(c, j);
+    rho[size_t(c)] = s / system.total_area();
+  }
+  return rho;
+}
+
+std::vector<double> ambient_radiosity(const std::vector<double>& interreflection,
+                                      const double* unshot_power, double total_area) {
+  std::vector<double> ambient(interreflection.size());
+  for (size_t c = 0; c < ambient.size(); ++c)
+    ambient[c] = interreflection[c] * unshot_power[c] / total_area;
+  return ambient;
+}
+
+}  // namespace radlab

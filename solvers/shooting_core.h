@@ -1,0 +1,88 @@
+// The state and the shot shared by the shooting solvers (shooting, sorted-shooting, overshooting,
+// interleaved), following DESIGN §2.
+//
+// Stored: x, the radiosity each element has shot so far, and dB, the unshot radiosity; the
+// estimate is B = x + dB (formed on demand). Both start from x = 0, dB = E, i.e. B = E. A shot of
+// s_c from i (row i of F) does, for every receiver j (the self term j = i included, so that the
+// books stay exact when a form-factor method reports F_ii != 0):
+//
+//   dB_cj += rho_cj F_ij (A_i / A_j) s_c,      then  dB_ci -= s_c,  x_ci += s_c.
+//
+// Invariant (exact for any s, any F): dB = E + J' x - x, the residual of x for J' = diag(rho) F',
+// F'_ji = F_ij A_i / A_j. With reciprocal form factors F' = F, so dB is the residual of x in the
+// System's own equation, and B - B* = (I - J)^-1 J dB. Shooting reads rows, so it can only ever
+// see F': when F is not reciprocal, every shooting method converges to the solution of F', which
+// differs from the System's (the gathering) solution by the reciprocity defect (Cohen et al. 1988
+// note the same between their gathering and shooting hemicubes).
+//
+// Storing x rather than B keeps the shot loop to one updated array per channel.
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include "core/radiosity.h"
+#include "solvers/kernels.h"
+#include "solvers/system.h"
+
+namespace radlab {
+
+class ShootingCore {
+ public:
+  void init(const System& system);
+
+  const System& system() const { return *system_; }
+  size_t size() const { return dB_.size(); }
+  int channels() const { return dB_.channels(); }
+
+  // Shoots s[c] from element i, given row i of F (read through System::with_row by the caller,
+  // which counts it). With select, returns the element with the largest priority
+  // A_j sum_c |dB_cj| afterwards (lowest index among equals). With coverage, adds F_ji to
+  // coverage[j] for every receiver j != i (Wu & Wang's dff).
+  template <class T>
+  kernels::Argmax shoot(const T* F, size_t i, const double* s, bool select,
+                        double* coverage = nullptr);
+
+  // The element with the largest priority, by a full scan.
+  kernels::Argmax max_priority() const { return kernels::max_priority(0, size(), targets()); }
+  // The priority of one element (the same arithmetic as the kernels).
+  double priority(size_t j) const;
+  // Whether every unshot value is exactly zero.
+  bool all_shot() const;
+  // The lowest-index element with a non-zero unshot value (priority 0 stands in for a priority
+  // that underflowed), or kNone.
+  kernels::Argmax first_unshot() const;
+  // Unshot power sum_j A_j dB_cj per channel (clamp_negative: positive dB only).
+  void unshot_power(bool clamp_negative, double* out) const;
+
+  // Adds v to dB_cj without shooting (gathers; bookkeeping corrections).
+  void add_unshot(int c, size_t j, double v) {
+    dB_.at(c, j) += v;
+    dirty_ = true;
+  }
+
+  const Radiosity& unshot() const { return dB_; }
+  const Radiosity& shot() const { return x_; }
+  // rho_cj / A_j.
+  const Radiosity& weight() const { return weight_; }
+  // B = x + dB.
+  const Radiosity& solution() const;
+
+ private:
+  kernels::ShotTargets targets() const;
+
+  const System* system_ = nullptr;
+  Radiosity x_, dB_, weight_;
+  mutable Radiosity B_;
+  mutable bool dirty_ = true;
+};
+
+// The area-weighted average reflectance per channel (Cohen et al. 1988 eq. 10).
+std::vector<double> average_reflectance(const System& system);
+
+// Cohen et al. 1988 eqs 9-12 per channel: R_c = 1 / (1 - rho_avg,c) times the area-weighted
+// average of the given unshot power (sum_j A_j dB_cj / sum_j A_j).
+std::vector<double> ambient_radiosity(const std::vector<double>& interreflection,
+                                      const double* unshot_power, double total_area);
+
+}  // namespace radlab
