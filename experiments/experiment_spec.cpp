@@ -35,24 +35,25 @@ class Reader {
   }
 
   std::string string(const toml::node& node, const std::string& what) const {
-    if (auto v = node.value<std::string>()) return *v;
+    if (node.is_string()) return *node.value<std::string>();
     fail(node, what + " must be a string");
   }
   long long integer(const toml::node& node, const std::string& what) const {
-    if (auto v = node.value<int64_t>()) return *v;
+    if (node.is_integer()) return *node.value<int64_t>();
     fail(node, what + " must be an integer");
   }
   double number(const toml::node& node, const std::string& what) const {
     if (node.is_integer()) return double(*node.value<int64_t>());
-    if (auto v = node.value<double>()) return *v;
+    if (node.is_floating_point()) return *node.value<double>();
     fail(node, what + " must be a number");
   }
   // Any scalar as text (for solver and method parameters): booleans as true/false.
   std::string scalar(const toml::node& node, const std::string& what) const {
-    if (auto v = node.value<bool>()) return *v ? "true" : "false";
+    // Check the node's own type: toml++'s value<T>() converts between types.
+    if (node.is_boolean()) return *node.value<bool>() ? "true" : "false";
     if (node.is_integer()) return std::to_string(*node.value<int64_t>());
-    if (auto v = node.value<double>()) return text::format_double(*v);
-    if (auto v = node.value<std::string>()) return *v;
+    if (node.is_floating_point()) return text::format_double(*node.value<double>());
+    if (node.is_string()) return *node.value<std::string>();
     fail(node, what + " must be a string, number or boolean");
   }
   // A scalar or an array of scalars, as a list.
@@ -87,7 +88,7 @@ ExperimentSpec read_experiment(const std::string& path) {
   Reader r(path);
   r.only(root,
          {"name", "description", "scenes", "subdiv", "element_size", "solvers", "seeds",
-          "form_factors", "budget", "checkpoints", "parameters", "images"},
+          "form_factors", "budget", "checkpoints", "parameters", "images", "coverage"},
          "the experiment");
   ExperimentSpec spec;
   spec.path = path;
@@ -213,14 +214,24 @@ ExperimentSpec read_experiment(const std::string& path) {
     if (auto n = (*im)["width"]) spec.images.width = int(r.integer(*n.node(), "images.width"));
     if (auto n = (*im)["height"]) spec.images.height = int(r.integer(*n.node(), "images.height"));
     if (auto n = (*im)["error_maps"]) {
-      auto v = n.value<bool>();
-      if (!v) r.fail(*n.node(), "images.error_maps must be true or false");
-      spec.images.error_maps = *v;
+      if (!n.is_boolean()) r.fail(*n.node(), "images.error_maps must be true or false");
+      spec.images.error_maps = *n.value<bool>();
     }
     if (spec.images.width < 8 || spec.images.height < 8 || spec.images.width > 8192 ||
         spec.images.height > 8192)
       throw InputError(path + ": [images] width and height must lie in [8, 8192]");
   }
+  if (const toml::table* cov = root["coverage"].as_table()) {
+    r.only(*cov, {"steps"}, "[coverage]");
+    if (auto n = (*cov)["steps"])
+      spec.coverage_steps =
+          r.list(*n.node(), [&](const toml::node& v) { return r.integer(v, "coverage.steps"); });
+  }
+
+  // Scene files are relative to the experiment file's folder.
+  for (std::string& scene : spec.scenes)
+    if (!text::starts_with(scene, "builtin:") && std::filesystem::path(scene).is_relative())
+      scene = (std::filesystem::path(path).parent_path() / scene).lexically_normal().string();
   return spec;
 }
 

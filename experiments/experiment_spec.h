@@ -42,6 +42,9 @@ struct ExperimentSpec {
   Budget budget;
   CheckpointSchedule schedule;
   ImageSpec images;
+  // Steps at which solvers that track Wu & Wang's shot coverage (interleaved) write per-element
+  // coverage and p-error (coverage/*.csv; Figs 2 and 4 of their paper).
+  std::vector<long long> coverage_steps;
 };
 
 ExperimentSpec read_experiment(const std::string& path);

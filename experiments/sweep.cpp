@@ -1,6 +1,7 @@
 #include "experiments/sweep.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <cmath>
 #include <filesystem>
 #include <memory>
@@ -9,6 +10,7 @@
 #include "core/json.h"
 #include "core/log.h"
 #include "core/text.h"
+#include "experiments/coverage.h"
 #include "experiments/images.h"
 #include "experiments/outputs.h"
 #include "experiments/summary.h"
@@ -60,6 +62,7 @@ SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
   const fs::path out(options.out_dir);
   fs::create_directories(out / "runs");
   if (!spec.images.steps.empty()) fs::create_directories(out / "images");
+  if (!spec.coverage_steps.empty()) fs::create_directories(out / "coverage");
 
   TraceWriter trace((out / "trace.csv").string());
   CsvWriter summary((out / "summary.csv").string(), summary_columns());
@@ -94,15 +97,20 @@ SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
                      bag.canonical()};
     CheckpointSchedule schedule = spec.schedule;
     for (long long s : spec.images.steps) schedule.extra.push_back(s);
-    CheckpointHook hook;
-    if (images) {
-      const std::string stem = file_stem(run.run_id);
-      hook = [&, stem](long long step, const Solver& s) {
-        if (std::find(spec.images.steps.begin(), spec.images.steps.end(), step) !=
-            spec.images.steps.end())
-          images->save(s, step, (out / "images" / stem).string());
-      };
-    }
+    for (long long s : spec.coverage_steps) schedule.extra.push_back(s);
+    const std::string stem = file_stem(run.run_id);
+    auto wanted = [](const std::vector<long long>& steps, long long step) {
+      return std::find(steps.begin(), steps.end(), step) != steps.end();
+    };
+    CheckpointHook hook = [&, stem](long long step, const Solver& s) {
+      if (images && wanted(spec.images.steps, step))
+        images->save(s, step, (out / "images" / stem).string());
+      if (wanted(spec.coverage_steps, step)) {
+        char name[64];
+        std::snprintf(name, sizeof name, "_step%06lld.csv", step);
+        write_coverage_csv((out / "coverage" / (stem + name)).string(), s, *problem, step);
+      }
+    };
     log::info("[" + std::to_string(run.index + 1) + "/" + std::to_string(plan.runs.size()) +
               "] " + run.run_id);
     RunResult result = run_solver(*solver, *problem, spec.budget, schedule, labels, &trace, hook);

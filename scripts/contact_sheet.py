@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """A contact sheet of a sweep's checkpoint images: one row per run, one column per step, like
 Cohen et al. 1988 Figs 2-5 (each cell: the display image, and beside it the pseudo-colour error).
 

@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Convergence plots from a radlab trace (Debian's python3-matplotlib, numpy, pandas).
 
 Usage: plot_traces.py OUT_DIR [--formats png,pdf]
@@ -13,6 +13,7 @@ Each figure is titled with the scene, the mesh size and the form-factor settings
 import argparse
 import json
 import os
+import re
 import sys
 
 import matplotlib
@@ -100,7 +101,7 @@ def main(argv):
     os.makedirs(plots, exist_ok=True)
     written = []
     for scene, scene_rows in trace.groupby("scene", sort=False):
-        safe = scene.replace("builtin:", "").replace("/", "_").replace(":", "_").replace(",", "_")
+        safe = re.sub(r"[^A-Za-z0-9._-]", "_", scene.replace("builtin:", ""))
         mean = scene_rows[scene_rows["channel"] == "mean"]
         runs = list(mean.groupby("run_id", sort=False))
         title = f"{name}: {scene}"
