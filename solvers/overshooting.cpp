@@ -16,14 +16,16 @@
 //     row, so one row per step.
 //   clamp=true counts only positive dB_cj in either estimate (so o_i >= 0): the overshoot never
 //   takes back energy that was over-shot elsewhere.
-//   Selection: regather picks the largest |A_i dB_i| (summed over channels; o_i needs the row);
-//   ambient picks the largest |A_i (dB_i + o_i)|, the power the shot would carry, since by
-//   |A_i dB_i| an element that has just over-shot is picked again to shoot dB + o ~ 0 and the
-//   solver stalls (seen on the cube: the error stayed at 0.97).
+//   Selection: the largest |A_i (dB_i + o_i)| summed over channels, the power the shot would
+//   carry: by |A_i dB_i| an element that has just over-shot is picked again to shoot dB + o ~ 0
+//   and the solver stalls (seen on the cube with ambient: the error stayed at 0.97; on the
+//   Cornell box with regather: it froze at 1e-2). Regather cannot know o_i without the row, so
+//   it uses each element's overshoot from its last shot (0 before its first), a scan over dB.
 // Paper: Feda & Purgathofer 1992 and Gortler et al. 1994, as summarised by Wu & Wang 2002 §2.
 // Parameters: variant (ambient | regather, default regather), clamp (bool, default false).
 // Cost per step: one form-factor row; the ambient variant adds two passes over dB in memory (the
-//   unshot power, then the selection), the regather variant a gather over the same row.
+//   unshot power, then the selection), the regather variant a gather over the same row and a
+//   selection pass over dB.
 // Left out: Feda & Purgathofer's treatment of the overshoot of light sources; the solver stops
 //   only when every dB is exactly zero, which overshooting rarely reaches (the runner's budget
 //   or tolerance ends the run).
@@ -64,6 +66,7 @@ class OvershootingSolver final : public Solver {
     core_.init(system);
     best_ = core_.max_priority();
     interreflection_.clear();
+    overshoot_ = Radiosity(system.channels(), system.size());
     if (!regather_) {
       for (double rho : average_reflectance(system)) {
         if (!(rho < 1.0))
@@ -107,6 +110,17 @@ class OvershootingSolver final : public Solver {
       core_.system().with_row(i, [&](const auto* F) { core_.shoot(F, i, s, false); });
       return {};
     }
+    // Regather: select by the power the shot would carry if each element's last overshoot
+    // estimate still held, A_j sum_c |dB_cj + o_cj| (o_j = 0 before j's first shot). Selecting by
+    // |A_j dB_j| alone re-picks the element that has just over-shot (its dB = -o is the largest)
+    // to shoot dB + o ~ 0, over and over: on the Cornell box the error froze at 1e-2.
+    best_ = {};
+    for (size_t j = 0; j < core_.size(); ++j) {
+      double p = 0.0;
+      for (int c = 0; c < channels; ++c) p += std::fabs(core_.unshot().at(c, j) + overshoot_.at(c, j));
+      p *= core_.system().area()[j];
+      if (p > best_.value) best_ = {p, j};
+    }
     if (!(best_.value > 0.0)) {
       if (core_.all_shot()) return {.finished = true};
       best_ = core_.first_unshot();
@@ -116,8 +130,11 @@ class OvershootingSolver final : public Solver {
     core_.system().with_row(i, [&](const auto* F) {
       double gathered[3] = {0.0, 0.0, 0.0};
       kernels::gather(F, core_.unshot(), gathered, options_.clamp);
-      for (int c = 0; c < channels; ++c) s[c] += rho.at(c, i) * gathered[c];
-      best_ = core_.shoot(F, i, s, true);
+      for (int c = 0; c < channels; ++c) {
+        overshoot_.at(c, i) = rho.at(c, i) * gathered[c];
+        s[c] += overshoot_.at(c, i);
+      }
+      core_.shoot(F, i, s, false);
     });
     return {};
   }
@@ -131,6 +148,7 @@ class OvershootingSolver final : public Solver {
   ShootingCore core_;
   kernels::Argmax best_;
   std::vector<double> interreflection_;  // R_c (ambient variant)
+  Radiosity overshoot_;                  // o_j of each element's last shot (regather variant)
 };
 
 }  // namespace
