@@ -135,7 +135,9 @@ SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
     write_solver_info(json, run.solver, bag.values());
     write_run_result(json, spec.budget, result);
     json.end_object();
-    json.save((out / "runs" / (file_stem(run.run_id) + ".run.json")).string());
+    json.save((out / "runs" / (stem + ".run.json")).string());
+    write_radiosity_csv((out / "runs" / (stem + ".radiosity.csv")).string(), problem->mesh,
+                        solver->solution());
     run_ids.push_back(run.run_id);
     ++report.runs_done;
   }
