@@ -176,6 +176,55 @@ TEST(Sweep, PlotScriptRunsOnATrace) {
     EXPECT_TRUE(std::filesystem::exists(dir.file(std::string("out/plots/") + name))) << name;
 }
 
+// A solver that breaks after a few steps, to check the runner notices.
+class BreakingSolver final : public Solver {
+ public:
+  void init(const System& system) override { B_ = system.emission(); }
+  StepInfo step() override {
+    if (++steps_ == 3) B_.at(0, 1) = std::nan("");
+    return {};
+  }
+  const Radiosity& solution() const override { return B_; }
+
+ private:
+  Radiosity B_;
+  int steps_ = 0;
+};
+
+TEST(Runner, NonFiniteSolutionIsANumericalError) {
+  ProblemSpec spec;
+  spec.scene = "builtin:cube";
+  auto problem = prepare_problem(spec);
+  BreakingSolver solver;
+  Budget budget;
+  budget.steps = 10;
+  RunLabels labels{"breaking", "builtin:cube", "breaking", ""};
+  try {
+    run_solver(solver, *problem, budget, CheckpointSchedule{}, labels, nullptr);
+    FAIL() << "expected a NumericalError";
+  } catch (const NumericalError& e) {
+    EXPECT_NE(std::string(e.what()).find("non-finite"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("step 3"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Runner, BudgetsStopWhereAsked) {
+  ProblemSpec spec;
+  spec.scene = "builtin:cube";
+  spec.mesh.subdivisions = 2;
+  auto problem = prepare_problem(spec);
+  ParamBag none("test");
+  for (long long rows : {1LL, 7LL, 100LL}) {
+    auto solver = make_solver("gauss-seidel", none);
+    Budget budget;
+    budget.rows = rows;
+    RunResult r = run_solver(*solver, *problem, budget, CheckpointSchedule{}, {"r", "", "", ""}, nullptr);
+    EXPECT_EQ(static_cast<long long>(r.rows), rows);
+    EXPECT_EQ(r.stop_reason, "row budget");
+    EXPECT_EQ(r.history.back().rows, r.rows);  // the last step is always a checkpoint
+  }
+}
+
 TEST(Summary, FirstReachInterpolatesInLogError) {
   std::vector<CheckpointRecord> history(3);
   history[0].rows = 0, history[0].rms_rel = 1.0;

@@ -1,0 +1,163 @@
+// The command line end to end: every bad input of the foundation issue gives a clear message and
+// the documented exit code (2 usage, 3 invalid input, 4 numerical failure), never a crash or hang;
+// and the happy path writes the files it promises.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "tests/test_support.h"
+
+namespace radlab {
+namespace {
+
+using testing::TempDir;
+
+struct Result {
+  int code = -1;
+  std::string output;  // stdout and stderr together
+};
+
+Result radlab(const std::string& arguments) {
+  // `timeout` turns a hang into a failure (exit 124) instead of a stuck test.
+  const std::string command = "timeout 120 " + std::string(RADLAB_BINARY) + " " + arguments + " 2>&1";
+  Result r;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (!pipe) return r;
+  std::array<char, 4096> buffer;
+  while (size_t n = fread(buffer.data(), 1, buffer.size(), pipe)) r.output.append(buffer.data(), n);
+  const int status = pclose(pipe);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+#define EXPECT_OUTPUT_HAS(result, text) \
+  EXPECT_NE((result).output.find(text), std::string::npos) << (result).output
+
+TEST(Cli, HelpEverywhere) {
+  for (const char* command :
+       {"", "scenes", "solvers", "formfactors", "reference", "solve", "run", "merge"}) {
+    Result r = radlab(std::string(command) + " --help");
+    EXPECT_EQ(r.code, 0) << command << ": " << r.output;
+    EXPECT_OUTPUT_HAS(r, "Usage");
+  }
+}
+
+TEST(Cli, MissingFileIsInvalidInput) {
+  Result r = radlab("solve /nonexistent/box.obj --solver gauss-seidel");
+  EXPECT_EQ(r.code, 3);
+  EXPECT_OUTPUT_HAS(r, "/nonexistent/box.obj");
+}
+
+TEST(Cli, MalformedObjNamesFileAndLine) {
+  TempDir dir;
+  dir.write("m.mtl", "newmtl a\nKd 0.5 0.5 0.5\nKe 1 1 1\n");
+  const std::string obj = dir.write("bad.obj", "mtllib m.mtl\nusemtl a\nv 0 0 0\nv 1 0\n");
+  Result r = radlab("solve " + obj + " --solver gauss-seidel");
+  EXPECT_EQ(r.code, 3);
+  EXPECT_OUTPUT_HAS(r, "bad.obj:4");
+}
+
+TEST(Cli, BadMaterialNamesTheMaterial) {
+  TempDir dir;
+  dir.write("m.mtl", "newmtl glossy\nKd 0.5 1.5 0.5\n");
+  const std::string obj = dir.write("s.obj", "mtllib m.mtl\nusemtl glossy\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  Result r = radlab("scenes " + obj);
+  EXPECT_EQ(r.code, 3);
+  EXPECT_OUTPUT_HAS(r, "glossy");
+}
+
+TEST(Cli, DegenerateAndNonPlanarPolygonsAreRepairedWithWarnings) {
+  TempDir dir;
+  dir.write("m.mtl", "newmtl a\nKd 0.5 0.5 0.5\nKe 1 1 1\n");
+  const std::string obj = dir.write(
+      "s.obj",
+      "mtllib m.mtl\nusemtl a\nv 0 0 0\nv 1 0 0\nv 1 1 0.2\nv 0 1 0\nv 2 0 0\n"
+      "f 1 2 3 4\nf 1 2 5\n");
+  Result r = radlab("scenes " + obj);
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_OUTPUT_HAS(r, "s.obj:8: non-planar");
+  EXPECT_OUTPUT_HAS(r, "s.obj:9: zero-area");
+}
+
+TEST(Cli, UnknownNamesAndKeysListTheValidOnes) {
+  Result solver = radlab("solve builtin:cube --solver gauss-seidl");
+  EXPECT_EQ(solver.code, 2);
+  EXPECT_OUTPUT_HAS(solver, "gauss-seidel");
+  Result scene = radlab("solve builtin:cub --solver gauss-seidel");
+  EXPECT_EQ(scene.code, 2);
+  EXPECT_OUTPUT_HAS(scene, "cornell");
+  Result key = radlab("solve builtin:cube --solver gauss-seidel --set omga=1.1");
+  EXPECT_EQ(key.code, 2);
+  EXPECT_OUTPUT_HAS(key, "omega");
+  Result scene_key = radlab("solve builtin:cube:rhoo=0.3 --solver gauss-seidel");
+  EXPECT_EQ(scene_key.code, 2);
+  EXPECT_OUTPUT_HAS(scene_key, "rho");
+  Result ff_key = radlab("solve builtin:cube --solver gauss-seidel --ff-set rayz=3");
+  EXPECT_EQ(ff_key.code, 2);
+  EXPECT_OUTPUT_HAS(ff_key, "rays");
+  Result option = radlab("solve builtin:cube --solver gauss-seidel --no-such-option");
+  EXPECT_EQ(option.code, 2);
+}
+
+TEST(Cli, SceneWithoutEmitter) {
+  TempDir dir;
+  dir.write("m.mtl", "newmtl a\nKd 0.5 0.5 0.5\n");
+  const std::string obj = dir.write("s.obj", "mtllib m.mtl\nusemtl a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  Result r = radlab("solve " + obj + " --solver gauss-seidel");
+  EXPECT_EQ(r.code, 3);
+  EXPECT_OUTPUT_HAS(r, "no emitter");
+}
+
+TEST(Cli, ClosedSceneReflectingEverythingFailsNumericallyWithoutHanging) {
+  Result r = radlab("solve builtin:furnace:rho=1 --subdiv 2 --solver gauss-seidel");
+  EXPECT_EQ(r.code, 4);
+  EXPECT_OUTPUT_HAS(r, "no finite solution");
+}
+
+TEST(Cli, SolveWritesTraceRadiositiesJsonAndImage) {
+  TempDir dir;
+  Result r = radlab("-q solve builtin:cube:rho=0.7 --subdiv 2 --solver gauss-seidel --steps 500 "
+                    "--trace " + dir.file("t.csv") + " --out " + dir.file("b.csv") + " --image " +
+                    dir.file("i.exr") + " --width 32 --height 32");
+  ASSERT_EQ(r.code, 0) << r.output;
+  for (const char* f : {"t.csv", "b.csv", "t.run.json", "i.exr", "i.png"})
+    EXPECT_TRUE(std::filesystem::exists(dir.file(f))) << f;
+  std::ifstream b(dir.file("b.csv"));
+  std::string header;
+  std::getline(b, header);
+  EXPECT_EQ(header, "element,area,B_r,B_g,B_b");
+}
+
+TEST(Cli, ToleranceBudgetIsCertified) {
+  Result r = radlab("solve builtin:cube:rho=0.9 --subdiv 2 --solver gauss-seidel --tol 1e-8");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_OUTPUT_HAS(r, "tolerance reached");
+}
+
+TEST(Cli, UnreachableToleranceIsReportedAsStagnation) {
+  // Rounding floors the certified bound near 1e-16: 1e-30 cannot be reached.
+  Result r = radlab("solve builtin:cube:rho=0.5 --subdiv 2 --solver gauss-seidel --tol 1e-30");
+  EXPECT_EQ(r.code, 4);
+  EXPECT_OUTPUT_HAS(r, "stagnated");
+}
+
+TEST(Cli, FormfactorsAndReferenceWriteCsv) {
+  TempDir dir;
+  Result f = radlab("-q formfactors builtin:cube --subdiv 2 --out " + dir.file("f.csv"));
+  ASSERT_EQ(f.code, 0) << f.output;
+  EXPECT_OUTPUT_HAS(f, "visibility rays: none");
+  std::ifstream in(dir.file("f.csv"));
+  std::string header;
+  std::getline(in, header);
+  EXPECT_EQ(header, "i,j,F");
+  Result ref = radlab("-q reference builtin:cube --out " + dir.file("r.csv"));
+  ASSERT_EQ(ref.code, 0) << ref.output;
+  EXPECT_OUTPUT_HAS(ref, "||B - B*||_inf <=");
+}
+
+}  // namespace
+}  // namespace radlab
