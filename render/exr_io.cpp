@@ -1,3 +1,6 @@
+// OpenEXR 3 behind two functions: FrameBuffer slices point straight into Image::rgb (interleaved
+// R, G, B floats), so there is no copy, and every OpenEXR exception becomes an InputError that
+// names the file.
 #include "render/exr_io.h"
 
 #include <ImfChannelList.h>
@@ -7,25 +10,43 @@
 #include <ImfOutputFile.h>
 
 #include <exception>
+#include <stdexcept>
 
 #include "core/error.h"
 
 namespace radlab {
+namespace {
+
+constexpr const char* kChannels[3] = {"R", "G", "B"};
+
+// Slices for the three interleaved channels of `pixels`, whose first float is the data window's
+// top-left pixel.
+Imf::FrameBuffer interleaved_frame(const float* pixels, const Imath::Box2i& window) {
+  const size_t x_stride = 3 * sizeof(float);
+  const size_t y_stride = x_stride * size_t(window.max.x - window.min.x + 1);
+  Imf::FrameBuffer frame;
+  for (int c = 0; c < 3; ++c)
+    frame.insert(kChannels[c],
+                 Imf::Slice::Make(Imf::FLOAT, pixels + c, window, x_stride, y_stride));
+  return frame;
+}
+
+}  // namespace
 
 void write_exr(const std::string& path, const Image& image) {
+  if (!image.well_formed())
+    throw std::invalid_argument(path + ": write_exr got an image whose pixel data (" +
+                                std::to_string(image.rgb.size()) + " floats) does not match " +
+                                std::to_string(image.width) + "x" + std::to_string(image.height));
+  if (image.width == 0 || image.height == 0)
+    throw InputError(path + ": cannot write an empty " + std::to_string(image.width) + "x" +
+                     std::to_string(image.height) + " EXR image");
   try {
     Imf::Header header(image.width, image.height);
     header.compression() = Imf::ZIP_COMPRESSION;
-    for (const char* c : {"R", "G", "B"}) header.channels().insert(c, Imf::Channel(Imf::FLOAT));
+    for (const char* c : kChannels) header.channels().insert(c, Imf::Channel(Imf::FLOAT));
     Imf::OutputFile file(path.c_str(), header);
-    Imf::FrameBuffer frame;
-    const size_t xstride = 3 * sizeof(float);
-    const size_t ystride = xstride * size_t(image.width);
-    char* base = const_cast<char*>(reinterpret_cast<const char*>(image.rgb.data()));
-    frame.insert("R", Imf::Slice(Imf::FLOAT, base, xstride, ystride));
-    frame.insert("G", Imf::Slice(Imf::FLOAT, base + sizeof(float), xstride, ystride));
-    frame.insert("B", Imf::Slice(Imf::FLOAT, base + 2 * sizeof(float), xstride, ystride));
-    file.setFrameBuffer(frame);
+    file.setFrameBuffer(interleaved_frame(image.rgb.data(), header.dataWindow()));
     file.writePixels(image.height);
   } catch (const std::exception& e) {
     throw InputError(path + ": cannot write EXR (" + e.what() + ")");
@@ -35,24 +56,12 @@ void write_exr(const std::string& path, const Image& image) {
 Image read_exr(const std::string& path) {
   try {
     Imf::InputFile file(path.c_str());
-    const Imath::Box2i window = file.header().dataWindow();
-    const int width = window.max.x - window.min.x + 1;
-    const int height = window.max.y - window.min.y + 1;
-    for (const char* c : {"R", "G", "B"})
+    for (const char* c : kChannels)
       if (!file.header().channels().findChannel(c))
         throw InputError(path + ": EXR has no channel " + c);
-    Image image(width, height);
-    Imf::FrameBuffer frame;
-    const size_t xstride = 3 * sizeof(float);
-    const size_t ystride = xstride * size_t(width);
-    // The slice base is offset so that pixel (min.x, min.y) lands at the start of the buffer.
-    char* base = reinterpret_cast<char*>(image.rgb.data()) -
-                 ptrdiff_t(window.min.x) * ptrdiff_t(xstride) -
-                 ptrdiff_t(window.min.y) * ptrdiff_t(ystride);
-    frame.insert("R", Imf::Slice(Imf::FLOAT, base, xstride, ystride));
-    frame.insert("G", Imf::Slice(Imf::FLOAT, base + sizeof(float), xstride, ystride));
-    frame.insert("B", Imf::Slice(Imf::FLOAT, base + 2 * sizeof(float), xstride, ystride));
-    file.setFrameBuffer(frame);
+    const Imath::Box2i window = file.header().dataWindow();
+    Image image(window.max.x - window.min.x + 1, window.max.y - window.min.y + 1);
+    file.setFrameBuffer(interleaved_frame(image.rgb.data(), window));
     file.readPixels(window.min.y, window.max.y);
     return image;
   } catch (const InputError&) {
