@@ -47,6 +47,9 @@ void save_image(const Problem& problem, const Radiosity& field, const std::strin
 }
 
 void run(const SolveOptions& o, int argc, char** argv) {
+  if (!o.image.empty() && (o.width < 8 || o.height < 8 || o.width > 8192 || o.height > 8192))
+    throw UsageError("--width and --height must lie in [8, 8192], got " + std::to_string(o.width) +
+                     " x " + std::to_string(o.height));
   ParamBag bag = ParamBag::from_assignments(o.set, "solver '" + o.solver + "'");
   std::unique_ptr<Solver> solver = make_solver(o.solver, bag);  // validates before any work
 

@@ -8,6 +8,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cstdio>
 
 namespace radlab {
 
@@ -20,6 +21,34 @@ FormFactorMatrix::FormFactorMatrix(size_t n, Precision precision) : n_(n), preci
 
 size_t FormFactorMatrix::bytes() const {
   return f32_.size() * sizeof(float) + f64_.size() * sizeof(double);
+}
+
+const void* FormFactorMatrix::data() const {
+  return precision_ == Precision::kFloat ? static_cast<const void*>(f32_.data())
+                                         : static_cast<const void*>(f64_.data());
+}
+
+void* FormFactorMatrix::data() {
+  return precision_ == Precision::kFloat ? static_cast<void*>(f32_.data())
+                                         : static_cast<void*>(f64_.data());
+}
+
+std::string BuildReport::summary() const {
+  char buffer[400];
+  std::snprintf(buffer, sizeof buffer,
+                "%.3f s on %d threads, %llu rays, %llu kernel evaluations, pairs: %llu culled, "
+                "%llu unoccluded, %llu traced",
+                seconds, threads, static_cast<unsigned long long>(cost.rays),
+                static_cast<unsigned long long>(cost.kernel_evaluations),
+                static_cast<unsigned long long>(cost.pairs_culled),
+                static_cast<unsigned long long>(cost.pairs_unoccluded),
+                static_cast<unsigned long long>(cost.pairs_traced));
+  std::string text = buffer;
+  if (cached) {
+    std::snprintf(buffer, sizeof buffer, " (loaded from the cache in %.3f s: ", load_seconds);
+    text += buffer + cache_file + ")";
+  }
+  return text;
 }
 
 void FormFactorMatrix::set_row(size_t i, std::span<const double> values) {

@@ -2,6 +2,8 @@
 #include "core/error.h"
 #include "core/text.h"
 #include "formfactor/form_factor_method.h"
+#include "formfactor/exact.h"
+#include "formfactor/hemicube.h"
 #include "formfactor/raycast.h"
 
 namespace radlab {
@@ -13,7 +15,21 @@ const std::vector<FormFactorMethodInfo>& form_factor_methods() {
        {{"tolerance", "1e-4: relative quadrature error per pair"},
         {"rays", "16: visibility rays per pair that can be occluded"},
         {"seed", "0: seed of the jittered visibility samples"},
-        {"max_order", "8: largest fixed Gauss rule per axis before adaptive subdivision"}}},
+        {"max_order", "8: largest fixed Gauss rule per axis before adaptive subdivision"},
+        {"shafts", "true: shaft culling (no rays where nothing can block); false to measure it"}}},
+      {"hemicube",
+       "Cohen-Greenberg hemicube at each element's centre: z-buffered item buffer, one row per "
+       "hemicube (aliasing included)",
+       {{"resolution", "150: pixels across the top face (even; side faces R x R/2)"},
+        {"weights", "midpoint: classic delta form factors; exact: integrated pixel weights (sum 1)"}}},
+      {"exact",
+       "unoccluded form factors to ~1e-9 by adaptive quadrature of Lambert's formula; refuses "
+       "scenes that can occlude",
+       {{"tolerance", "1e-11: relative quadrature error per pair"},
+        {"max_depth", "16: subdivision levels of the adaptive rule"},
+        {"visibility", "refuse: exit 3 if anything can occlude; rays: multiply by raycast V"},
+        {"rays", "64: visibility rays per pair that may be blocked (visibility=rays only)"},
+        {"seed", "0: seed of the visibility points (visibility=rays only)"}}},
   };
   return table;
 }
@@ -24,6 +40,16 @@ std::unique_ptr<FormFactorMethod> make_form_factor_method(const std::string& nam
     RaycastOptions options = RaycastOptions::from(bag);
     bag.finish();
     return std::make_unique<RaycastFormFactors>(scene, mesh, options);
+  }
+  if (name == "hemicube") {
+    HemicubeOptions options = HemicubeOptions::from(bag);
+    bag.finish();
+    return std::make_unique<HemicubeFormFactors>(scene, mesh, options);
+  }
+  if (name == "exact") {
+    ExactOptions options = ExactOptions::from(bag);
+    bag.finish();
+    return std::make_unique<ExactFormFactors>(scene, mesh, options);
   }
   std::vector<std::string> names;
   for (const auto& m : form_factor_methods()) names.push_back(m.name);
