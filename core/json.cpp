@@ -12,11 +12,21 @@ std::string json_escape(const std::string& text) {
   std::string out;
   for (char c : text) {
     switch (c) {
-      case '"': out += "\\\""; break;
-      case '\\': out += "\\\\"; break;
-      case '\n': out += "\\n"; break;
-      case '\t': out += "\\t"; break;
-      case '\r': out += "\\r"; break;
+      case '"':
+        out += "\\\"";
+        break;
+      case '\\':
+        out += "\\\\";
+        break;
+      case '\n':
+        out += "\\n";
+        break;
+      case '\t':
+        out += "\\t";
+        break;
+      case '\r':
+        out += "\\r";
+        break;
       default:
         if (static_cast<unsigned char>(c) < 0x20) {
           char buffer[8];
@@ -30,7 +40,9 @@ std::string json_escape(const std::string& text) {
   return out;
 }
 
-void JsonWriter::indent() { out_.append(2 * first_.size(), ' '); }
+void JsonWriter::indent() {
+  out_.append(2 * first_.size(), ' ');
+}
 
 void JsonWriter::separator() {
   if (after_key_) {

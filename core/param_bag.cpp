@@ -27,7 +27,9 @@ ParamBag ParamBag::from_list(const std::string& list, std::string context) {
   return from_assignments(items, std::move(context));
 }
 
-void ParamBag::set(const std::string& key, const std::string& value) { values_[key] = value; }
+void ParamBag::set(const std::string& key, const std::string& value) {
+  values_[key] = value;
+}
 
 const std::string* ParamBag::lookup(const std::string& key) {
   known_.insert(key);
@@ -48,7 +50,8 @@ long long ParamBag::get_int(const std::string& key, long long fallback) {
   const std::string* v = lookup(key);
   if (!v) return fallback;
   auto parsed = text::parse_int(*v);
-  if (!parsed) throw UsageError(context_ + ": key '" + key + "' needs an integer, got '" + *v + "'");
+  if (!parsed)
+    throw UsageError(context_ + ": key '" + key + "' needs an integer, got '" + *v + "'");
   return *parsed;
 }
 

@@ -15,7 +15,9 @@ constexpr uint64_t mix64(uint64_t x) {
   return x ^ (x >> 31);
 }
 
-constexpr uint64_t hash_combine(uint64_t seed, uint64_t value) { return mix64(seed ^ mix64(value)); }
+constexpr uint64_t hash_combine(uint64_t seed, uint64_t value) {
+  return mix64(seed ^ mix64(value));
+}
 
 // PCG32 (O'Neill): small state, good statistics, fast.
 class Pcg32 {

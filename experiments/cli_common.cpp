@@ -38,7 +38,8 @@ ProblemSpec make_spec(const SceneOptions& scene, const FormFactorOptions& ff) {
   spec.scene = scene.scene;
   spec.mesh.subdivisions = scene.subdiv;
   spec.mesh.element_size = scene.element_size;
-  if (scene.subdiv < 1) throw UsageError("--subdiv must be >= 1, got " + std::to_string(scene.subdiv));
+  if (scene.subdiv < 1)
+    throw UsageError("--subdiv must be >= 1, got " + std::to_string(scene.subdiv));
   if (scene.element_size < 0)
     throw UsageError("--element-size must be > 0, got " + std::to_string(scene.element_size));
   spec.ff_method = ff.method;

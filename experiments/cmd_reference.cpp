@@ -8,8 +8,7 @@
 namespace radlab::cli {
 
 void add_reference_command(CLI::App& app) {
-  auto* command =
-      app.add_subcommand("reference", "solve the system to a certified high precision");
+  auto* command = app.add_subcommand("reference", "solve the system to a certified high precision");
   auto scene = std::make_shared<SceneOptions>();
   auto ff = std::make_shared<FormFactorOptions>();
   auto out = std::make_shared<std::string>();

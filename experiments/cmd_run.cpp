@@ -20,13 +20,15 @@ void add_run_command(CLI::App& app, int argc, char** argv) {
   auto o = std::make_shared<Options>();
   command->add_option("experiment", o->file, "experiment file (experiments/*.toml)")->required();
   command->add_option("--out", o->out, "output folder (default out/NAME)");
-  command->add_option("--shard", o->shard, "run every N-th run only: i/N (merge with `radlab merge`)");
+  command->add_option("--shard", o->shard,
+                      "run every N-th run only: i/N (merge with `radlab merge`)");
   command->add_flag("--list", o->list, "list the runs and exit");
   command->callback([o, argc, argv]() {
     ExperimentSpec spec = read_experiment(o->file);
     if (o->list) {
       SweepPlan plan = plan_sweep(spec);
-      for (const PlannedRun& run : plan.runs) std::printf("%zu %s\n", run.index, run.run_id.c_str());
+      for (const PlannedRun& run : plan.runs)
+        std::printf("%zu %s\n", run.index, run.run_id.c_str());
       return;
     }
     SweepOptions options;

@@ -36,8 +36,8 @@ std::string run_id_for(const SolveOptions& o, const std::string& params) {
 void save_image(const Problem& problem, const Radiosity& field, const std::string& path, int width,
                 int height) {
   EmbreeScene embree(problem.mesh);
-  const Camera camera = problem.scene().camera ? *problem.scene().camera
-                                               : default_camera(problem.mesh);
+  const Camera camera =
+      problem.scene().camera ? *problem.scene().camera : default_camera(problem.mesh);
   Image image = render_radiosity(problem.mesh, embree, field, camera, width, height);
   ensure_parent_folder(path);
   write_exr(path, image);
@@ -68,7 +68,8 @@ void run(const SolveOptions& o, int argc, char** argv) {
     trace = std::make_unique<TraceWriter>(o.trace);
   }
   RunLabels labels{run_id_for(o, bag.canonical()), o.scene.scene, o.solver, bag.canonical()};
-  RunResult result = run_solver(*solver, *problem, budget, CheckpointSchedule{}, labels, trace.get());
+  RunResult result =
+      run_solver(*solver, *problem, budget, CheckpointSchedule{}, labels, trace.get());
 
   std::printf("run          %s\n", labels.run_id.c_str());
   std::printf("stopped      %s after %lld steps, %llu form-factor rows, %.4f s\n",
@@ -86,8 +87,8 @@ void run(const SolveOptions& o, int argc, char** argv) {
   }
   if (!o.trace.empty()) log::info("wrote " + o.trace);
   if (!o.image.empty())
-    save_image(*problem, o.display_image ? solver->display() : solver->solution(), o.image,
-               o.width, o.height);
+    save_image(*problem, o.display_image ? solver->display() : solver->solution(), o.image, o.width,
+               o.height);
 
   std::string json_path = o.json;
   if (json_path.empty() && !o.trace.empty())

@@ -12,7 +12,8 @@ bool write_coverage_csv(const std::string& path, const Solver& solver, const Pro
   const Radiosity& B = solver.solution();
   const size_t n = B.size();
   const int channels = B.channels();
-  std::vector<std::string> columns = {"step", "session", "element", "area", "dff", "shot", "p_mean"};
+  std::vector<std::string> columns = {"step", "session", "element", "area",
+                                      "dff",  "shot",    "p_mean"};
   if (channels == 3) columns.insert(columns.end(), {"p_r", "p_g", "p_b"});
   std::vector<std::vector<double>> p(channels == 3 ? 4 : 1, std::vector<double>(n));
   relative_errors(B, problem.reference->B, kMeanOfChannels, p[0]);

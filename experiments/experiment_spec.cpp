@@ -1,8 +1,9 @@
 #include "experiments/experiment_spec.h"
 
+#include <toml++/toml.h>
+
 #include <filesystem>
 #include <set>
-#include <toml++/toml.h>
 
 #include "core/error.h"
 #include "core/text.h"
@@ -27,10 +28,9 @@ class Reader {
             const std::string& where) const {
     for (auto&& [key, node] : table) {
       if (allowed.count(std::string(key.str()))) continue;
-      fail_at(key.source(), "unknown key '" + std::string(key.str()) + "' in " + where +
-                                "; valid keys: " +
-                                text::join(std::vector<std::string>(allowed.begin(), allowed.end()),
-                                           ", "));
+      fail_at(key.source(),
+              "unknown key '" + std::string(key.str()) + "' in " + where + "; valid keys: " +
+                  text::join(std::vector<std::string>(allowed.begin(), allowed.end()), ", "));
     }
   }
 

@@ -28,8 +28,8 @@ void ImageMaker::save(const Solver& solver, long long step, const std::string& s
   std::snprintf(suffix, sizeof suffix, "_step%06lld", step);
   const std::string base = stem + suffix;
   const Radiosity display = solver.display();
-  Image image = render_radiosity(problem_.mesh, *embree_, display, camera_, spec_.width,
-                                 spec_.height);
+  Image image =
+      render_radiosity(problem_.mesh, *embree_, display, camera_, spec_.width, spec_.height);
   write_exr(base + ".exr", image);
   write_png(base + ".png", image, exposure_);
   if (!spec_.error_maps || !problem_.reference) return;
@@ -52,8 +52,8 @@ void ImageMaker::save(const Solver& solver, long long step, const std::string& s
                                                   spec_.width, spec_.height, false));
   write_png_ldr(base + "_perror.png", render_field(problem_.mesh, *embree_, perror, camera_,
                                                    spec_.width, spec_.height, false));
-  write_exr(base + "_cohen.exr", render_field(problem_.mesh, *embree_, cohen, camera_,
-                                              spec_.width, spec_.height, false));
+  write_exr(base + "_cohen.exr", render_field(problem_.mesh, *embree_, cohen, camera_, spec_.width,
+                                              spec_.height, false));
 }
 
 }  // namespace radlab

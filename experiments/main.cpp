@@ -31,7 +31,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "radlab: error: %s\n", e.what());
     return int(e.code());
   } catch (const std::bad_alloc&) {
-    std::fprintf(stderr, "radlab: error: out of memory (try a coarser mesh or --ff-mode on-the-fly)\n");
+    std::fprintf(stderr,
+                 "radlab: error: out of memory (try a coarser mesh or --ff-mode on-the-fly)\n");
     return int(radlab::ExitCode::kNumerical);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "radlab: internal error: %s\n", e.what());

@@ -59,7 +59,8 @@ size_t merge_sweeps(const std::vector<std::string>& dirs, const std::string& out
     const size_t id_column = summaries[s].column("run_id");
     for (const auto& row : summaries[s].rows) {
       auto index = text::parse_int(row[index_column]);
-      if (!index) throw InputError(summaries[s].path + ": bad run_index '" + row[index_column] + "'");
+      if (!index)
+        throw InputError(summaries[s].path + ": bad run_index '" + row[index_column] + "'");
       if (!seen.emplace(row[id_column], dirs[s]).second)
         throw InputError("merge: run '" + row[id_column] + "' is in " + seen[row[id_column]] +
                          " and in " + dirs[s]);

@@ -62,7 +62,8 @@ void write_problem_info(JsonWriter& json, const Problem& p) {
     json.field("build_seconds", p.build.seconds);
     json.field("threads", p.build.threads);
     json.field("rays", static_cast<unsigned long long>(p.build.cost.rays));
-    json.field("kernel_evaluations", static_cast<unsigned long long>(p.build.cost.kernel_evaluations));
+    json.field("kernel_evaluations",
+               static_cast<unsigned long long>(p.build.cost.kernel_evaluations));
     json.field("pairs_culled", static_cast<unsigned long long>(p.build.cost.pairs_culled));
     json.field("pairs_unoccluded", static_cast<unsigned long long>(p.build.cost.pairs_unoccluded));
     json.field("pairs_traced", static_cast<unsigned long long>(p.build.cost.pairs_traced));

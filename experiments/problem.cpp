@@ -3,6 +3,7 @@
 #include "core/error.h"
 #include "core/log.h"
 #include "core/progress.h"
+#include "formfactor/matrix_cache.h"
 
 namespace radlab {
 
@@ -18,19 +19,48 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
             " polygons, " + std::to_string(problem->mesh.size()) + " elements, " +
             (problem->scene().is_grey() ? "grey (1 channel)" : "RGB (3 channels)"));
 
-  ParamBag ff_bag = ParamBag::from_assignments(spec.ff_set, "form factors '" + spec.ff_method + "'");
-  problem->method = make_form_factor_method(spec.ff_method, ff_bag, problem->scene(), problem->mesh);
-  problem->ff_parameters = problem->method->parameters();
+  ParamBag ff_bag =
+      ParamBag::from_assignments(spec.ff_set, "form factors '" + spec.ff_method + "'");
+  // Generic form-factor option (any method): symmetrise the dense matrix after building/loading.
+  const bool symmetrise_ff = ff_bag.get_bool("symmetrise", false);
+  problem->method =
+      make_form_factor_method(spec.ff_method, ff_bag, problem->scene(), problem->mesh);
+  problem->ff_parameters =
+      problem->method->parameters() + (symmetrise_ff ? ",symmetrise=true" : "");
+  if (symmetrise_ff && spec.row_mode != RowMode::kCached)
+    throw UsageError("form factors: symmetrise=true needs the dense matrix (--ff-mode cached)");
 
   const size_t n = problem->mesh.size();
   // The dense matrix is built when rows are cached or the reference needs it; a streaming run
   // without a reference never holds n^2 numbers.
   if (spec.row_mode == RowMode::kCached || spec.need_reference) {
-    Progress progress("form factors (" + spec.ff_method + ", " + std::to_string(n) + " rows)",
-                      "rows", double(n));
-    problem->matrix = build_matrix(*problem->method, n, spec.precision, problem->build,
-                                   [&](size_t done, size_t) { progress.update(double(done)); });
-    progress.finish(std::to_string(problem->build.cost.rays) + " visibility rays");
+    std::optional<MatrixCache> cache;
+    MatrixCacheKey key;
+    if (spec.use_cache) {
+      const std::filesystem::path dir =
+          spec.cache_dir.empty() ? default_cache_dir() : std::filesystem::path(spec.cache_dir);
+      if (!dir.empty()) {
+        cache.emplace(dir);
+        key = matrix_cache_key(problem->mesh, problem->method->name(),
+                               problem->method->parameters(), spec.precision);
+      }
+    }
+    std::optional<FormFactorMatrix> cached =
+        cache ? cache->load(key, &problem->build) : std::nullopt;
+    if (cached) {
+      problem->matrix = std::move(*cached);
+      log::info("form factors: " + problem->build.summary());
+    } else {
+      Progress progress("form factors (" + spec.ff_method + ", " + std::to_string(n) + " rows)",
+                        "rows", double(n));
+      problem->matrix = build_matrix(*problem->method, n, spec.precision, problem->build,
+                                     [&](size_t done, size_t) { progress.update(double(done)); });
+      progress.finish(std::to_string(problem->build.cost.rays) + " visibility rays");
+      log::info("form factors: " + problem->build.summary());
+      if (cache && cache->store(key, problem->matrix, problem->build))
+        problem->build.cache_file = cache->path(key).string();
+    }
+    if (symmetrise_ff) symmetrise(problem->matrix, problem->mesh.area);
     problem->diagnostics = diagnose(problem->matrix, problem->mesh.area);
     log::info("form factors: " + problem->diagnostics.summary());
     if (problem->diagnostics.non_finite_entries > 0 || problem->diagnostics.negative_entries > 0)

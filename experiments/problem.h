@@ -22,14 +22,16 @@ namespace radlab {
 enum class RowMode { kCached, kOnTheFly };
 
 struct ProblemSpec {
-  std::string scene;                // builtin:NAME[:k=v,...] or a file
-  MeshOptions mesh;                 // --subdiv / --element-size
+  std::string scene;  // builtin:NAME[:k=v,...] or a file
+  MeshOptions mesh;   // --subdiv / --element-size
   std::string ff_method = "raycast";
   std::vector<std::string> ff_set;  // --ff-set k=v
   Precision precision = Precision::kFloat;
   RowMode row_mode = RowMode::kCached;
   bool need_reference = true;
   bool require_emitter = true;
+  bool use_cache = true;  // dense matrices from/to the on-disk cache (formfactor/matrix_cache.h)
+  std::string cache_dir;  // the cache folder; empty: $RADLAB_CACHE_DIR or ~/.cache/radlab
 };
 
 struct Problem {

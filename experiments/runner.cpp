@@ -47,7 +47,8 @@ class Evaluator {
       : problem_(problem), labels_(labels), trace_(trace) {
     if (problem.reference) {
       for (int c = 0; c < problem.reference->B.channels(); ++c)
-        for (double v : problem.reference->B.channel(c)) max_reference_ = std::max(max_reference_, v);
+        for (double v : problem.reference->B.channel(c))
+          max_reference_ = std::max(max_reference_, v);
     }
   }
 
@@ -114,8 +115,7 @@ class Evaluator {
       row.p_rms_display = or_nan(d.p_rms);
       row.p_max_display = or_nan(d.p_max);
       if (!residual.empty()) {
-        row.residual_inf = field == kMeanOfChannels ? worst_residual
-                                                    : residual[size_t(field)];
+        row.residual_inf = field == kMeanOfChannels ? worst_residual : residual[size_t(field)];
         row.bound_inf = row.residual_inf * inverse_norm;
       } else {
         row.residual_inf = row.bound_inf = nan;
@@ -170,8 +170,8 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
   long long step = 0;
   long long next_checkpoint = schedule.next_after(0);
   auto checkpoint = [&]() {
-    const double bound = evaluator.evaluate(solver, step, system.rows_used(), seconds,
-                                            system.rays_used(), result);
+    const double bound =
+        evaluator.evaluate(solver, step, system.rows_used(), seconds, system.rays_used(), result);
     CheckpointRecord record;
     record.step = step;
     record.rows = system.rows_used();
@@ -212,9 +212,10 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
     ++step;
     progress.update(budget.steps ? double(step) : double(system.rows_used()));
 
-    const bool at_end = info.finished || (budget.steps && step >= *budget.steps) ||
-                        (budget.rows && static_cast<long long>(system.rows_used()) >= *budget.rows) ||
-                        (budget.seconds && seconds >= *budget.seconds);
+    const bool at_end =
+        info.finished || (budget.steps && step >= *budget.steps) ||
+        (budget.rows && static_cast<long long>(system.rows_used()) >= *budget.rows) ||
+        (budget.seconds && seconds >= *budget.seconds);
     if (step == next_checkpoint || at_end) {
       bound = checkpoint();
       next_checkpoint = schedule.next_after(step);

@@ -7,25 +7,53 @@
 namespace radlab {
 
 const std::vector<std::string>& summary_columns() {
-  static const std::vector<std::string> columns = {
-      "run_index", "run_id", "scene", "solver", "params", "elements", "channels", "steps",
-      "ff_rows", "seconds", "stop_reason", "rms_rel", "p_mean", "p_max", "rms_rel_display",
-      "p_mean_display", "bound_relative",
-      "rows_to_rms_rel_1e-1", "seconds_to_rms_rel_1e-1",
-      "rows_to_rms_rel_1e-2", "seconds_to_rms_rel_1e-2",
-      "rows_to_rms_rel_1e-3", "seconds_to_rms_rel_1e-3",
-      "rows_to_p_mean_1e-2", "seconds_to_p_mean_1e-2",
-      "fit_points", "fit_rate_per_row", "fit_rate_per_row_sigma", "fit_rows_per_decade",
-      "fit_rows_to_rms_rel_1e-6", "fit_rows_to_rms_rel_1e-6_sigma", "fit_seconds_per_decade",
-      "fit_seconds_to_rms_rel_1e-6",
-      "fit_rate_per_sweep", "spectral_radius"};
+  static const std::vector<std::string> columns = {"run_index",
+                                                   "run_id",
+                                                   "scene",
+                                                   "solver",
+                                                   "params",
+                                                   "elements",
+                                                   "channels",
+                                                   "steps",
+                                                   "ff_rows",
+                                                   "seconds",
+                                                   "stop_reason",
+                                                   "rms_rel",
+                                                   "p_mean",
+                                                   "p_max",
+                                                   "rms_rel_display",
+                                                   "p_mean_display",
+                                                   "bound_relative",
+                                                   "rows_to_rms_rel_1e-1",
+                                                   "seconds_to_rms_rel_1e-1",
+                                                   "rows_to_rms_rel_1e-2",
+                                                   "seconds_to_rms_rel_1e-2",
+                                                   "rows_to_rms_rel_1e-3",
+                                                   "seconds_to_rms_rel_1e-3",
+                                                   "rows_to_p_mean_1e-2",
+                                                   "seconds_to_p_mean_1e-2",
+                                                   "fit_points",
+                                                   "fit_rate_per_row",
+                                                   "fit_rate_per_row_sigma",
+                                                   "fit_rows_per_decade",
+                                                   "fit_rows_to_rms_rel_1e-6",
+                                                   "fit_rows_to_rms_rel_1e-6_sigma",
+                                                   "fit_seconds_per_decade",
+                                                   "fit_seconds_to_rms_rel_1e-6",
+                                                   "fit_rate_per_sweep",
+                                                   "spectral_radius"};
   return columns;
 }
 
 const std::vector<std::string>& summary_time_columns() {
   static const std::vector<std::string> columns = {
-      "seconds", "seconds_to_rms_rel_1e-1", "seconds_to_rms_rel_1e-2", "seconds_to_rms_rel_1e-3",
-      "seconds_to_p_mean_1e-2", "fit_seconds_per_decade", "fit_seconds_to_rms_rel_1e-6",
+      "seconds",
+      "seconds_to_rms_rel_1e-1",
+      "seconds_to_rms_rel_1e-2",
+      "seconds_to_rms_rel_1e-3",
+      "seconds_to_p_mean_1e-2",
+      "fit_seconds_per_decade",
+      "fit_seconds_to_rms_rel_1e-6",
       "stop_reason"};  // a time budget makes the stop reason machine-dependent too
   return columns;
 }

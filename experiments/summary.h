@@ -20,8 +20,8 @@ struct SummaryInputs {
   RunLabels labels;
   size_t elements = 0;
   int channels = 1;
-  bool gathering = false;         // one step = one gather: a sweep is n steps
-  double spectral_radius = 0.0;   // of diag(rho)F, worst channel (NaN if not estimated)
+  bool gathering = false;        // one step = one gather: a sweep is n steps
+  double spectral_radius = 0.0;  // of diag(rho)F, worst channel (NaN if not estimated)
 };
 
 // The x at which a decreasing trace first reaches `threshold`, interpolated linearly in

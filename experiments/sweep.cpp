@@ -1,8 +1,8 @@
 #include "experiments/sweep.h"
 
 #include <algorithm>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <memory>
 
@@ -31,7 +31,8 @@ std::pair<int, int> parse_shard(const std::string& text) {
 
 std::string file_stem(const std::string& run_id) {
   std::string stem;
-  for (char c : run_id) stem += (c == '/' || c == ':' || c == ' ' || c == ',' || c == '=') ? '_' : c;
+  for (char c : run_id)
+    stem += (c == '/' || c == ':' || c == ' ' || c == ',' || c == '=') ? '_' : c;
   return stem;
 }
 
@@ -44,9 +45,9 @@ bool is_gathering(const std::string& solver) {
 double worst_spectral_radius(const Problem& problem) {
   double worst = 0.0;
   for (int c = 0; c < problem.system->channels(); ++c)
-    worst = std::max(worst, spectral_radius_bounds(problem.matrix,
-                                                   problem.system->reflectance().channel(c), 200)
-                                .upper);
+    worst = std::max(
+        worst, spectral_radius_bounds(problem.matrix, problem.system->reflectance().channel(c), 200)
+                   .upper);
   return worst;
 }
 
@@ -111,8 +112,8 @@ SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
         write_coverage_csv((out / "coverage" / (stem + name)).string(), s, *problem, step);
       }
     };
-    log::info("[" + std::to_string(run.index + 1) + "/" + std::to_string(plan.runs.size()) +
-              "] " + run.run_id);
+    log::info("[" + std::to_string(run.index + 1) + "/" + std::to_string(plan.runs.size()) + "] " +
+              run.run_id);
     RunResult result = run_solver(*solver, *problem, spec.budget, schedule, labels, &trace, hook);
 
     SummaryInputs inputs;
@@ -148,8 +149,8 @@ SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
   sweep.field("name", spec.name);
   sweep.field("description", spec.description);
   sweep.field("command", options.command);
-  sweep.field("shard", std::to_string(options.shard_index) + "/" +
-                           std::to_string(options.shard_count));
+  sweep.field("shard",
+              std::to_string(options.shard_index) + "/" + std::to_string(options.shard_count));
   sweep.field("runs_total", plan.runs.size());
   sweep.field("runs", run_ids);
   write_build_info(sweep);

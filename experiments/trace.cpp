@@ -4,12 +4,15 @@ namespace radlab {
 
 const std::vector<std::string>& trace_columns() {
   static const std::vector<std::string> columns = {
-      "run_id",       "scene",         "solver",         "params",        "channel",
-      "step",         "ff_rows",       "seconds",        "rms",           "rms_rel",
-      "p_mean",       "p_rms",         "p_max",          "p_over",        "p_under",
-      "p_excluded",   "rms_display",   "rms_rel_display", "p_mean_display", "p_rms_display",
-      "p_max_display", "residual_inf", "bound_inf",      "unshot_power",  "total_power",
-      "rays"};
+      "run_id",         "scene",         "solver",
+      "params",         "channel",       "step",
+      "ff_rows",        "seconds",       "rms",
+      "rms_rel",        "p_mean",        "p_rms",
+      "p_max",          "p_over",        "p_under",
+      "p_excluded",     "rms_display",   "rms_rel_display",
+      "p_mean_display", "p_rms_display", "p_max_display",
+      "residual_inf",   "bound_inf",     "unshot_power",
+      "total_power",    "rays"};
   return columns;
 }
 

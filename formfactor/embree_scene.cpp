@@ -19,6 +19,24 @@ struct EmbreeScene::Impl {
 };
 
 namespace {
+
+// An intersection context that carries the two polygons whose hits are to be ignored. Embree
+// passes the context it was given to the filter unchanged, so the filter can cast back.
+struct SkipContext {
+  RTCIntersectContext context;  // first member: a SkipContext* is a valid RTCIntersectContext*
+  const uint32_t* triangle_polygon;
+  uint32_t skip_a, skip_b;
+};
+
+void skip_polygons(const RTCFilterFunctionNArguments* args) {
+  const auto* skip = reinterpret_cast<const SkipContext*>(args->context);
+  for (unsigned k = 0; k < args->N; ++k) {
+    if (args->valid[k] == 0) continue;
+    const uint32_t polygon = skip->triangle_polygon[RTCHitN_primID(args->hit, args->N, k)];
+    if (polygon == skip->skip_a || polygon == skip->skip_b) args->valid[k] = 0;
+  }
+}
+
 void check_device(RTCDevice device, const char* what) {
   RTCError error = rtcGetDeviceError(device);
   if (error != RTC_ERROR_NONE)
@@ -32,7 +50,9 @@ EmbreeScene::EmbreeScene(const Mesh& mesh) : impl_(std::make_unique<Impl>()) {
   if (!impl_->device) throw NumericalError("Embree: cannot create a device");
   impl_->scene = rtcNewScene(impl_->device);
   // Robust mode: rays between points on touching elements must not slip through shared edges.
-  rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);
+  // Context filters: occluded16 can ignore the polygons a segment starts and ends on.
+  rtcSetSceneFlags(impl_->scene,
+                   RTCSceneFlags(RTC_SCENE_FLAG_ROBUST | RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION));
   rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_HIGH);
 
   std::vector<uint32_t> triangles;
@@ -41,6 +61,7 @@ EmbreeScene::EmbreeScene(const Mesh& mesh) : impl_(std::make_unique<Impl>()) {
     for (size_t k = 1; k + 1 < corners.size(); ++k) {
       triangles.insert(triangles.end(), {corners[0], corners[k], corners[k + 1]});
       triangle_element_.push_back(uint32_t(e));
+      triangle_polygon_.push_back(mesh.polygon[e]);
     }
   }
   RTCGeometry geometry = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_TRIANGLE);
@@ -84,7 +105,8 @@ bool EmbreeScene::occluded(const Vec3& o, const Vec3& d, double t_near, double t
 
 void EmbreeScene::occluded16(const float* ox, const float* oy, const float* oz, const float* dx,
                              const float* dy, const float* dz, const float* t_near,
-                             const float* t_far, int count, bool* out) const {
+                             const float* t_far, int count, bool* out, uint32_t skip_a,
+                             uint32_t skip_b) const {
   alignas(64) RTCRay16 rays;
   alignas(64) int valid[16];
   for (int k = 0; k < 16; ++k) {
@@ -104,10 +126,14 @@ void EmbreeScene::occluded16(const float* ox, const float* oy, const float* oz, 
     rays.id[k] = unsigned(k);
     rays.flags[k] = 0;
   }
-  RTCIntersectContext context;
-  rtcInitIntersectContext(&context);
-  context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-  rtcOccluded16(valid, impl_->scene, &context, &rays);
+  SkipContext skip;
+  rtcInitIntersectContext(&skip.context);
+  skip.context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  skip.triangle_polygon = triangle_polygon_.data();
+  skip.skip_a = skip_a;
+  skip.skip_b = skip_b;
+  if (skip_a != kNoPolygon || skip_b != kNoPolygon) skip.context.filter = skip_polygons;
+  rtcOccluded16(valid, impl_->scene, &skip.context, &rays);
   for (int k = 0; k < count; ++k) out[k] = rays.tfar[k] < 0.0f;
 }
 

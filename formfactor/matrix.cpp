@@ -84,7 +84,8 @@ FormFactorMatrix build_matrix(const FormFactorMethod& method, size_t n, Precisio
   });
   report.cost = costs.combine([](RowCost a, const RowCost& b) { return a += b; });
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  report.threads = int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+  report.threads =
+      int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
   return matrix;
 }
 

@@ -61,7 +61,7 @@ struct BuildReport {
   RowCost cost;
   double seconds = 0.0;  // wall time of the build (of the original build when `cached`)
   int threads = 0;
-  bool cached = false;       // loaded from the on-disk cache (matrix_cache.h)
+  bool cached = false;        // loaded from the on-disk cache (matrix_cache.h)
   double load_seconds = 0.0;  // time to load and verify the cached file
   std::string cache_file;     // the cache file read or written, if any
 

@@ -1,8 +1,8 @@
 // The explicit table of form-factor methods and the factory.
 #include "core/error.h"
 #include "core/text.h"
-#include "formfactor/form_factor_method.h"
 #include "formfactor/exact.h"
+#include "formfactor/form_factor_method.h"
 #include "formfactor/hemicube.h"
 #include "formfactor/raycast.h"
 
@@ -21,11 +21,12 @@ const std::vector<FormFactorMethodInfo>& form_factor_methods() {
        "Cohen-Greenberg hemicube at each element's centre: z-buffered item buffer, one row per "
        "hemicube (aliasing included)",
        {{"resolution", "150: pixels across the top face (even; side faces R x R/2)"},
-        {"weights", "midpoint: classic delta form factors; exact: integrated pixel weights (sum 1)"}}},
+        {"weights",
+         "midpoint: classic delta form factors; exact: integrated pixel weights (sum 1)"}}},
       {"exact",
        "unoccluded form factors to ~1e-9 by adaptive quadrature of Lambert's formula; refuses "
        "scenes that can occlude",
-       {{"tolerance", "1e-11: relative quadrature error per pair"},
+       {{"tolerance", "1e-10: relative quadrature error per pair"},
         {"max_depth", "16: subdivision levels of the adaptive rule"},
         {"visibility", "refuse: exit 3 if anything can occlude; rays: multiply by raycast V"},
         {"rays", "64: visibility rays per pair that may be blocked (visibility=rays only)"},
@@ -53,7 +54,8 @@ std::unique_ptr<FormFactorMethod> make_form_factor_method(const std::string& nam
   }
   std::vector<std::string> names;
   for (const auto& m : form_factor_methods()) names.push_back(m.name);
-  throw UsageError("unknown form-factor method '" + name + "'; methods: " + text::join(names, ", "));
+  throw UsageError("unknown form-factor method '" + name +
+                   "'; methods: " + text::join(names, ", "));
 }
 
 }  // namespace radlab

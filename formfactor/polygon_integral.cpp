@@ -1,5 +1,6 @@
 #include "formfactor/polygon_integral.h"
 
+#include <algorithm>
 #include <cmath>
 #include <glm/geometric.hpp>
 
@@ -37,7 +38,8 @@ std::vector<std::vector<Vec3>> children(std::span<const Vec3> c) {
   } else if (c.size() == 4) {
     Vec3 m01 = 0.5 * (c[0] + c[1]), m12 = 0.5 * (c[1] + c[2]), m23 = 0.5 * (c[2] + c[3]),
          m30 = 0.5 * (c[3] + c[0]), mid = 0.25 * (c[0] + c[1] + c[2] + c[3]);
-    out = {{c[0], m01, mid, m30}, {m01, c[1], m12, mid}, {mid, m12, c[2], m23}, {m30, mid, m23, c[3]}};
+    out = {
+        {c[0], m01, mid, m30}, {m01, c[1], m12, mid}, {mid, m12, c[2], m23}, {m30, mid, m23, c[3]}};
   } else {
     for (size_t k = 1; k + 1 < c.size(); ++k) out.push_back({c[0], c[k], c[k + 1]});
   }
@@ -59,8 +61,8 @@ double adaptive(std::span<const Vec3> cell, double cell_estimate, const Vec3& n,
   if (depth <= 0 || error <= std::max(tolerance * std::abs(sum), floor)) return sum;
   double refined = 0.0;
   for (size_t k = 0; k < kids.size(); ++k)
-    refined += adaptive(kids[k], estimates[k], n, to, tolerance, 0.25 * floor, depth - 1,
-                        evaluations);
+    refined +=
+        adaptive(kids[k], estimates[k], n, to, tolerance, 0.25 * floor, depth - 1, evaluations);
   return refined;
 }
 
@@ -71,13 +73,27 @@ double polygon_form_factor_fixed(const PolygonRef& from, const PolygonRef& to, i
 }
 
 double polygon_form_factor_adaptive(const PolygonRef& from, const PolygonRef& to,
-                                    double relative_tolerance, double absolute_floor,
-                                    int max_depth, long long* evaluations) {
+                                    double relative_tolerance, double absolute_floor, int max_depth,
+                                    long long* evaluations) {
   const double area = geometry::area(from.corners);
   const double whole = area * rule_on(from.corners, from.normal, to, 3, evaluations);
   return adaptive(from.corners, whole, from.normal, to, relative_tolerance, absolute_floor * area,
                   max_depth, evaluations) /
          area;
+}
+
+double clip_to_front(std::vector<Vec3>& corners, const Vec3& point, const Vec3& normal,
+                     double epsilon) {
+  bool behind = false;
+  for (const Vec3& v : corners) behind = behind || glm::dot(v - point, normal) < -epsilon;
+  if (!behind) return 1.0;
+  const double area = geometry::area(corners);
+  thread_local std::vector<Vec3> kept;
+  geometry::clip_to_halfspace(corners, point, normal, kept);
+  const double kept_area = kept.size() >= 3 ? geometry::area(kept) : 0.0;
+  if (!(kept_area > 0.0) || !(area > 0.0)) return 0.0;
+  corners.assign(kept.begin(), kept.end());
+  return std::min(1.0, kept_area / area);
 }
 
 FixedOrderRule::FixedOrderRule(double relative_tolerance, int max_order)

@@ -28,8 +28,17 @@ double polygon_form_factor_fixed(const PolygonRef& from, const PolygonRef& to, i
 // agree to `relative_tolerance` (with a floor of `absolute_floor`), at most `max_depth` levels.
 // `evaluations`, if given, accumulates the number of point-to-polygon evaluations.
 double polygon_form_factor_adaptive(const PolygonRef& from, const PolygonRef& to,
-                                    double relative_tolerance, double absolute_floor,
-                                    int max_depth, long long* evaluations = nullptr);
+                                    double relative_tolerance, double absolute_floor, int max_depth,
+                                    long long* evaluations = nullptr);
+
+// The integrand F_{dx -> P_j} is zero for x behind P_j's plane and jumps there when P_i straddles
+// that plane (elements not split where another polygon stands on them, e.g. a box on a floor):
+// both rules converge slowly across a jump. This keeps the part of `corners` on or in front of
+// the plane through `point` with unit `normal` (up to `epsilon` metres) and returns the fraction
+// of the area kept (1: nothing cut, `corners` untouched; 0: nothing left). Integrate over the
+// kept part and multiply by the fraction.
+double clip_to_front(std::vector<Vec3>& corners, const Vec3& point, const Vec3& normal,
+                     double epsilon);
 
 // Chooses the number of Gauss points per axis a fixed rule needs for a relative tolerance, from
 // the Bernstein-ellipse bound for an integrand analytic within distance `gap` of an element of

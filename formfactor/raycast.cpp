@@ -37,8 +37,7 @@ std::string RaycastOptions::canonical() const {
   return buffer;
 }
 
-RaycastFormFactors::RaycastFormFactors(const Scene& scene, const Mesh& mesh,
-                                       RaycastOptions options)
+RaycastFormFactors::RaycastFormFactors(const Scene& scene, const Mesh& mesh, RaycastOptions options)
     : mesh_(mesh),
       options_((options.validate(), options)),
       order_rule_(options.tolerance, options.max_order),
@@ -63,19 +62,22 @@ double RaycastFormFactors::unoccluded(size_t i, size_t j, RowCost& cost) const {
   thread_local std::vector<Vec3> from, to;
   mesh_.corners(i, from);
   mesh_.corners(j, to);
+  // Integrate only over the part of i in front of j's plane (no jump in the integrand).
+  const double kept = clip_to_front(from, mesh_.centroid[j], mesh_.normal[j], plane_epsilon_);
+  if (kept <= 0.0) return 0.0;
   const PolygonRef a{from, mesh_.normal[i]};
   const PolygonRef b{to, mesh_.normal[j]};
-  const double gap =
-      glm::distance(mesh_.centroid[i], mesh_.centroid[j]) - radius_[i] - radius_[j];
+  const double gap = glm::distance(mesh_.centroid[i], mesh_.centroid[j]) - radius_[i] - radius_[j];
   const int order = order_rule_.order(gap, 2.0 * radius_[i]);
   if (order > 0) {
-    cost.kernel_evaluations += uint64_t(order * order * (from.size() == 4 ? 1 : int(from.size()) - 2));
-    return polygon_form_factor_fixed(a, b, order);
+    cost.kernel_evaluations +=
+        uint64_t(order * order * (from.size() == 4 ? 1 : int(from.size()) - 2));
+    return kept * polygon_form_factor_fixed(a, b, order);
   }
   long long evaluations = 0;
   double f = polygon_form_factor_adaptive(a, b, options_.tolerance, 1e-14, 10, &evaluations);
   cost.kernel_evaluations += uint64_t(evaluations);
-  return f;
+  return kept * f;
 }
 
 bool pair_faces(const Mesh& mesh, size_t i, size_t j, double epsilon) {

@@ -15,12 +15,12 @@ namespace radlab {
 
 struct ConvergenceFit {
   bool valid = false;
-  std::string reason;          // why the fit is not valid
-  int points = 0;              // checkpoints in the tail
-  double log_rate = 0.0;       // b: d log(error) / dx
+  std::string reason;     // why the fit is not valid
+  int points = 0;         // checkpoints in the tail
+  double log_rate = 0.0;  // b: d log(error) / dx
   double log_rate_sigma = 0.0;
-  double intercept = 0.0;      // a
-  double rate = 0.0;           // exp(b): error factor per unit of x
+  double intercept = 0.0;       // a
+  double rate = 0.0;            // exp(b): error factor per unit of x
   double x_to_tolerance = 0.0;  // where a + b x = log(tolerance)
   double x_to_tolerance_sigma = 0.0;
   double tolerance = 0.0;
@@ -29,7 +29,7 @@ struct ConvergenceFit {
 struct FitOptions {
   double tail_fraction = 0.5;  // fit the checkpoints with x >= (1 - tail_fraction) * max x
   int min_points = 4;
-  double loss_scale = 0.5;     // Cauchy loss scale, in natural-log units of error
+  double loss_scale = 0.5;  // Cauchy loss scale, in natural-log units of error
 };
 
 // `x` increasing; `error` > 0 where used (non-positive or non-finite errors are skipped).

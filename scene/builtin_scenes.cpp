@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "core/text.h"
 #include "scene/geometry.h"
+#include "scene/paper_scenes.h"
 
 namespace radlab {
 namespace {
@@ -90,11 +91,9 @@ Scene make_cornell(ParamBag& bag) {
   // Ceiling (556.0 x 559.2 at y = 548.8) minus the light's opening x in [213,343], z in [227,332].
   wall({mm(0, 548.8, 0), mm(556.0, 548.8, 0), mm(556.0, 548.8, 227.0), mm(0, 548.8, 227.0)}, white,
        "ceiling-front");
-  wall({mm(0, 548.8, 332.0), mm(556.0, 548.8, 332.0), mm(556.0, 548.8, 559.2),
-        mm(0, 548.8, 559.2)},
+  wall({mm(0, 548.8, 332.0), mm(556.0, 548.8, 332.0), mm(556.0, 548.8, 559.2), mm(0, 548.8, 559.2)},
        white, "ceiling-back");
-  wall({mm(0, 548.8, 227.0), mm(213.0, 548.8, 227.0), mm(213.0, 548.8, 332.0),
-        mm(0, 548.8, 332.0)},
+  wall({mm(0, 548.8, 227.0), mm(213.0, 548.8, 227.0), mm(213.0, 548.8, 332.0), mm(0, 548.8, 332.0)},
        white, "ceiling-right");
   wall({mm(343.0, 548.8, 227.0), mm(556.0, 548.8, 227.0), mm(556.0, 548.8, 332.0),
         mm(343.0, 548.8, 332.0)},
@@ -113,17 +112,17 @@ Scene make_cornell(ParamBag& bag) {
       scene.polygons.push_back(std::move(p));
     }
   };
-  block({{mm(130.0, 165.0, 65.0), mm(82.0, 165.0, 225.0), mm(240.0, 165.0, 272.0),
-          mm(290.0, 165.0, 114.0)},
-         {mm(290.0, 0.0, 114.0), mm(290.0, 165.0, 114.0), mm(240.0, 165.0, 272.0),
-          mm(240.0, 0.0, 272.0)},
-         {mm(130.0, 0.0, 65.0), mm(130.0, 165.0, 65.0), mm(290.0, 165.0, 114.0),
-          mm(290.0, 0.0, 114.0)},
-         {mm(82.0, 0.0, 225.0), mm(82.0, 165.0, 225.0), mm(130.0, 165.0, 65.0),
-          mm(130.0, 0.0, 65.0)},
-         {mm(240.0, 0.0, 272.0), mm(240.0, 165.0, 272.0), mm(82.0, 165.0, 225.0),
-          mm(82.0, 0.0, 225.0)}},
-        mm(186.0, 82.5, 168.5), "short-block");
+  block(
+      {{mm(130.0, 165.0, 65.0), mm(82.0, 165.0, 225.0), mm(240.0, 165.0, 272.0),
+        mm(290.0, 165.0, 114.0)},
+       {mm(290.0, 0.0, 114.0), mm(290.0, 165.0, 114.0), mm(240.0, 165.0, 272.0),
+        mm(240.0, 0.0, 272.0)},
+       {mm(130.0, 0.0, 65.0), mm(130.0, 165.0, 65.0), mm(290.0, 165.0, 114.0),
+        mm(290.0, 0.0, 114.0)},
+       {mm(82.0, 0.0, 225.0), mm(82.0, 165.0, 225.0), mm(130.0, 165.0, 65.0), mm(130.0, 0.0, 65.0)},
+       {mm(240.0, 0.0, 272.0), mm(240.0, 165.0, 272.0), mm(82.0, 165.0, 225.0),
+        mm(82.0, 0.0, 225.0)}},
+      mm(186.0, 82.5, 168.5), "short-block");
   block({{mm(423.0, 330.0, 247.0), mm(265.0, 330.0, 296.0), mm(314.0, 330.0, 456.0),
           mm(472.0, 330.0, 406.0)},
          {mm(423.0, 0.0, 247.0), mm(423.0, 330.0, 247.0), mm(472.0, 330.0, 406.0),
@@ -212,6 +211,27 @@ const std::vector<BuiltinScene>& builtin_scenes() {
         {"ly", "1", "size along y (m)"},
         {"lz", "1", "size along z (m)"}},
        make_furnace},
+      {"office",
+       "two office cubicles, Cohen et al. 1988 (reconstruction; closed; RGB); --subdiv 4: ~7,000 "
+       "elements",
+       {{"light_scale", "1", "multiplies the luminaires' emission (12, 11.5, 10)"},
+        {"rho_scale", "1", "multiplies every reflectance (must stay <= 1)"},
+        {"patch", "0.6", "target patch edge (m); the element target assumes the default"}},
+       make_office_scene},
+      {"room",
+       "a simple room, Wu & Wang 2002 example B (reconstruction; closed; RGB); --subdiv 2: "
+       "~1,336 elements",
+       {{"light_scale", "1", "multiplies the luminaire's emission (15, 14, 12)"},
+        {"rho_scale", "1", "multiplies every reflectance (must stay <= 1)"},
+        {"patch", "0.55", "target patch edge (m); the element target assumes the default"}},
+       make_room_scene},
+      {"computer-room",
+       "a computer room, Wu & Wang 2002 example A (reconstruction; closed; RGB); --subdiv 3: "
+       "~4,953 elements",
+       {{"light_scale", "1", "multiplies the luminaires' emission (14, 14, 13)"},
+        {"rho_scale", "1", "multiplies every reflectance (must stay <= 1)"},
+        {"patch", "0.9", "target patch edge (m); the element target assumes the default"}},
+       make_computer_room_scene},
   };
   return table;
 }
@@ -231,8 +251,8 @@ Scene make_builtin_scene(const std::string& name_and_parameters) {
   }
   std::vector<std::string> names;
   for (const BuiltinScene& builtin : builtin_scenes()) names.push_back(builtin.name);
-  throw UsageError("unknown built-in scene '" + name + "'; built-in scenes: " +
-                   text::join(names, ", "));
+  throw UsageError("unknown built-in scene '" + name +
+                   "'; built-in scenes: " + text::join(names, ", "));
 }
 
 }  // namespace radlab

@@ -13,7 +13,9 @@ Vec3 newell_vector(std::span<const Vec3> v) {
   return n;
 }
 
-double area(std::span<const Vec3> v) { return 0.5 * glm::length(newell_vector(v)); }
+double area(std::span<const Vec3> v) {
+  return 0.5 * glm::length(newell_vector(v));
+}
 
 Vec3 unit_normal(std::span<const Vec3> v) {
   Vec3 n = newell_vector(v);

@@ -71,8 +71,8 @@ class MeshBuilder {
     std::vector<std::vector<uint32_t>> row(size_t(k + 1));
     for (int b = 0; b <= k; ++b)
       for (int a = 0; a + b <= k; ++a)
-        row[size_t(b)].push_back(add_vertex(p0 + (double(a) / k) * (p1 - p0) +
-                                            (double(b) / k) * (p2 - p0)));
+        row[size_t(b)].push_back(
+            add_vertex(p0 + (double(a) / k) * (p1 - p0) + (double(b) / k) * (p2 - p0)));
     for (int b = 0; b < k; ++b)
       for (int a = 0; a + b < k; ++a) {
         add_element({row[b][a], row[b][a + 1], row[b + 1][a]}, polygon);

@@ -23,8 +23,8 @@ class Mesh {
  public:
   size_t size() const { return area.size(); }
   std::span<const uint32_t> element_vertices(size_t element) const {
-    return {vertex_index.data() + first_vertex[element], first_vertex[element + 1] -
-                                                              first_vertex[element]};
+    return {vertex_index.data() + first_vertex[element],
+            first_vertex[element + 1] - first_vertex[element]};
   }
   // Copies the corner positions of an element (3 or 4, more only for unsplit n-gons).
   void corners(size_t element, std::vector<Vec3>& out) const;

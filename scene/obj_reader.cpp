@@ -39,8 +39,9 @@ Rgb parse_rgb(const LineReader& reader, const std::vector<std::string_view>& tok
   Rgb c;
   for (size_t i = 1; i < tokens.size(); ++i) {
     auto v = text::parse_double(tokens[i]);
-    if (!v) reader.fail("'" + std::string(tokens[0]) + "': '" + std::string(tokens[i]) +
-                        "' is not a number");
+    if (!v)
+      reader.fail("'" + std::string(tokens[0]) + "': '" + std::string(tokens[i]) +
+                  "' is not a number");
     c[int(i - 1)] = *v;
   }
   if (tokens.size() == 2) c = Rgb(c.x);
@@ -90,7 +91,7 @@ Scene read_obj(const std::string& path) {
   int current = -1;
   int default_material = -1;
   std::string line;
-  static const std::set<std::string_view> ignored = {"vt", "vn", "vp", "o", "g", "s",
+  static const std::set<std::string_view> ignored = {"vt", "vn", "vp", "o",      "g",  "s",
                                                      "l",  "p",  "mg", "cstype", "deg"};
   while (reader.next(line)) {
     auto tokens = text::split_whitespace(line);

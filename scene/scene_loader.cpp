@@ -5,6 +5,7 @@
 #include "core/error.h"
 #include "core/text.h"
 #include "scene/builtin_scenes.h"
+#include "scene/mgf_reader.h"
 #include "scene/obj_reader.h"
 
 namespace radlab {
@@ -18,9 +19,14 @@ LoadedScene load_scene(const std::string& spec, bool print) {
     if (!std::filesystem::exists(spec)) throw InputError(spec + ": no such file");
     if (extension == ".obj") {
       loaded.scene = read_obj(spec);
+    } else if (extension == ".mgf") {
+      MgfOptions options;
+      options.print_warnings = print;
+      loaded.scene = read_mgf(spec, options);
     } else {
-      throw InputError(spec + ": unsupported scene format '" + extension +
-                       "' (radlab reads .obj with .mtl, or builtin:NAME; see `radlab scenes`)");
+      throw InputError(
+          spec + ": unsupported scene format '" + extension +
+          "' (radlab reads .obj with .mtl, .mgf, or builtin:NAME; see `radlab scenes`)");
     }
     loaded.scene.name = spec;
   }

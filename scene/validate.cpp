@@ -48,7 +48,8 @@ std::vector<std::vector<Vec3>> ear_clip(const std::vector<Vec3>& v) {
   while (idx.size() > 3 && guard++ < 10 * v.size() * v.size()) {
     bool clipped = false;
     for (size_t k = 0; k < idx.size(); ++k) {
-      size_t ia = idx[(k + idx.size() - 1) % idx.size()], ib = idx[k], ic = idx[(k + 1) % idx.size()];
+      size_t ia = idx[(k + idx.size() - 1) % idx.size()], ib = idx[k],
+             ic = idx[(k + 1) % idx.size()];
       if (turn(v[ia], v[ib], v[ic]) <= 0) continue;
       bool ear = true;
       for (size_t m : idx)
@@ -108,8 +109,7 @@ ValidationReport validate_scene(Scene& scene) {
     std::vector<Vec3> v = merge_repeated(polygon.vertices);
     if (degenerate(v)) {
       report.warnings.push_back(polygon.origin + ": zero-area or degenerate polygon (" +
-                                std::to_string(polygon.vertices.size()) +
-                                " vertices) dropped");
+                                std::to_string(polygon.vertices.size()) + " vertices) dropped");
       ++report.dropped;
       continue;
     }
@@ -118,10 +118,9 @@ ValidationReport validate_scene(Scene& scene) {
     std::vector<std::vector<Vec3>> pieces;
     if (defect > kPlanarityTolerance * diameter) {
       pieces = split_non_planar(v);
-      report.warnings.push_back(polygon.origin + ": non-planar polygon (off its plane by " +
-                                std::to_string(defect) + " m, " +
-                                std::to_string(defect / diameter) +
-                                " of its size) split into triangles");
+      report.warnings.push_back(
+          polygon.origin + ": non-planar polygon (off its plane by " + std::to_string(defect) +
+          " m, " + std::to_string(defect / diameter) + " of its size) split into triangles");
     } else if (!geometry::is_convex(v)) {
       pieces = ear_clip(v);
       report.warnings.push_back(polygon.origin +

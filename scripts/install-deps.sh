@@ -8,7 +8,7 @@ packages=(
   build-essential cmake git pkg-config
   libglm-dev libembree-dev libopenexr-dev libceres-dev libeigen3-dev libtbb-dev
   libcli11-dev libtomlplusplus-dev libpng-dev
-  libgtest-dev libbenchmark-dev
+  libgtest-dev libbenchmark-dev clang-format
   python3 python3-matplotlib python3-numpy python3-pandas
 )
 

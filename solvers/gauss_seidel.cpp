@@ -1,8 +1,8 @@
 // gauss-seidel — gathering by Gauss–Seidel (successive over-relaxation with omega != 1).
 //
 // Method: visit elements in index order; each step gathers at one element i from the newest
-//   estimates:  B_i <- (1-omega) B_i + omega (E_i + rho_i sum_{j != i} F_ij B_j) / (1 - rho_i F_ii).
-//   Starting from B = E (below the solution) with omega <= 1 the iterates rise monotonically
+//   estimates:  B_i <- (1-omega) B_i + omega (E_i + rho_i sum_{j != i} F_ij B_j) / (1 - rho_i
+//   F_ii). Starting from B = E (below the solution) with omega <= 1 the iterates rise monotonically
 //   to the solution (all terms are non-negative).
 // Paper: the "traditional" radiosity solution of Cohen & Greenberg 1985, the "Gathering Only"
 //   curve of Cohen et al. 1988 (Fig. 7); Gortler, Cohen & Slusallek 1994 for SOR.

@@ -47,8 +47,8 @@ class JacobiSolver final : public Solver {
     double gathered[3] = {0.0, 0.0, 0.0};
     system_->with_row(i, [&](const auto* F) { kernels::gather(F, previous_, gathered); });
     for (int c = 0; c < current_.channels(); ++c) {
-      const double target = system_->emission().at(c, i) +
-                            system_->reflectance().at(c, i) * gathered[c];
+      const double target =
+          system_->emission().at(c, i) + system_->reflectance().at(c, i) * gathered[c];
       current_.at(c, i) = (1.0 - options_.omega) * previous_.at(c, i) + options_.omega * target;
     }
     if (++next_ == current_.size()) {

@@ -117,7 +117,8 @@ class OvershootingSolver final : public Solver {
     best_ = {};
     for (size_t j = 0; j < core_.size(); ++j) {
       double p = 0.0;
-      for (int c = 0; c < channels; ++c) p += std::fabs(core_.unshot().at(c, j) + overshoot_.at(c, j));
+      for (int c = 0; c < channels; ++c)
+        p += std::fabs(core_.unshot().at(c, j) + overshoot_.at(c, j));
       p *= core_.system().area()[j];
       if (p > best_.value) best_ = {p, j};
     }

@@ -24,7 +24,7 @@ using Long = long double;
 // error of a sum of k products (Higham, Accuracy and Stability, §3.1).
 long double gamma_for(size_t k) {
   const long double u = std::numeric_limits<long double>::epsilon() / 2;
-  return Long(k)*u / (1 - Long(k)*u);
+  return Long(k) * u / (1 - Long(k) * u);
 }
 
 struct ChannelData {
@@ -265,10 +265,11 @@ Reference compute_reference(const System& system, const FormFactorMatrix& F,
     // A closed scene (no row loses more than 1% to escape) where everything reflects all light:
     // emitted power is never absorbed, radiosity grows without bound.
     if (all_reflect && min_row_sum > 0.99)
-      throw NumericalError("no finite solution in channel " + channel +
-                           ": every element has reflectance 1 in a closed scene (row sums of F >= " +
-                           std::to_string(min_row_sum) +
-                           "), so emitted light is never absorbed; lower a reflectance");
+      throw NumericalError(
+          "no finite solution in channel " + channel +
+          ": every element has reflectance 1 in a closed scene (row sums of F >= " +
+          std::to_string(min_row_sum) +
+          "), so emitted light is never absorbed; lower a reflectance");
     double radius_upper = q;
     if (q >= 1.0) {
       auto [lower, upper] = collatz_wielandt(F, rho, 60, true);
@@ -335,7 +336,8 @@ Reference compute_reference(const System& system, const FormFactorMatrix& F,
     }
     if (!(bound <= options.acceptable * std::max(max_B, 1e-300)))
       throw NumericalError("reference: could not certify channel " + channel + ": bound " +
-                           std::to_string(bound) + " exceeds " + std::to_string(options.acceptable) +
+                           std::to_string(bound) + " exceeds " +
+                           std::to_string(options.acceptable) +
                            " of max B = " + std::to_string(max_B));
     ref.bound_inf = std::max(ref.bound_inf, bound);
     ref.residual_inf = std::max(ref.residual_inf, r_norm);

@@ -38,9 +38,9 @@ struct ReferenceOptions {
 
 struct Reference {
   Radiosity B;
-  double bound_inf = 0.0;       // certified max over channels of ||B - B*||_inf
-  double bound_relative = 0.0;  // bound_inf / max B
-  double residual_inf = 0.0;    // max over channels of ||E - (I-J)B||_inf (with rounding bound)
+  double bound_inf = 0.0;           // certified max over channels of ||B - B*||_inf
+  double bound_relative = 0.0;      // bound_inf / max B
+  double residual_inf = 0.0;        // max over channels of ||E - (I-J)B||_inf (with rounding bound)
   double inverse_norm_bound = 0.0;  // certified upper bound on ||(I-J)^-1||_inf (worst channel)
   double q = 0.0;                   // max_i rho_i sum_j F_ij (worst channel)
   double spectral_radius_upper = 0.0;  // Collatz–Wielandt upper bound on rho(J) (worst channel)

@@ -23,7 +23,8 @@ struct Result {
 
 Result radlab(const std::string& arguments) {
   // `timeout` turns a hang into a failure (exit 124) instead of a stuck test.
-  const std::string command = "timeout 120 " + std::string(RADLAB_BINARY) + " " + arguments + " 2>&1";
+  const std::string command =
+      "timeout 120 " + std::string(RADLAB_BINARY) + " " + arguments + " 2>&1";
   Result r;
   FILE* pipe = popen(command.c_str(), "r");
   if (!pipe) return r;
@@ -64,7 +65,8 @@ TEST(Cli, MalformedObjNamesFileAndLine) {
 TEST(Cli, BadMaterialNamesTheMaterial) {
   TempDir dir;
   dir.write("m.mtl", "newmtl glossy\nKd 0.5 1.5 0.5\n");
-  const std::string obj = dir.write("s.obj", "mtllib m.mtl\nusemtl glossy\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  const std::string obj =
+      dir.write("s.obj", "mtllib m.mtl\nusemtl glossy\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
   Result r = radlab("scenes " + obj);
   EXPECT_EQ(r.code, 3);
   EXPECT_OUTPUT_HAS(r, "glossy");
@@ -73,10 +75,10 @@ TEST(Cli, BadMaterialNamesTheMaterial) {
 TEST(Cli, DegenerateAndNonPlanarPolygonsAreRepairedWithWarnings) {
   TempDir dir;
   dir.write("m.mtl", "newmtl a\nKd 0.5 0.5 0.5\nKe 1 1 1\n");
-  const std::string obj = dir.write(
-      "s.obj",
-      "mtllib m.mtl\nusemtl a\nv 0 0 0\nv 1 0 0\nv 1 1 0.2\nv 0 1 0\nv 2 0 0\n"
-      "f 1 2 3 4\nf 1 2 5\n");
+  const std::string obj =
+      dir.write("s.obj",
+                "mtllib m.mtl\nusemtl a\nv 0 0 0\nv 1 0 0\nv 1 1 0.2\nv 0 1 0\nv 2 0 0\n"
+                "f 1 2 3 4\nf 1 2 5\n");
   Result r = radlab("scenes " + obj);
   EXPECT_EQ(r.code, 0) << r.output;
   EXPECT_OUTPUT_HAS(r, "s.obj:8: non-planar");
@@ -106,7 +108,8 @@ TEST(Cli, UnknownNamesAndKeysListTheValidOnes) {
 TEST(Cli, SceneWithoutEmitter) {
   TempDir dir;
   dir.write("m.mtl", "newmtl a\nKd 0.5 0.5 0.5\n");
-  const std::string obj = dir.write("s.obj", "mtllib m.mtl\nusemtl a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  const std::string obj =
+      dir.write("s.obj", "mtllib m.mtl\nusemtl a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
   Result r = radlab("solve " + obj + " --solver gauss-seidel");
   EXPECT_EQ(r.code, 3);
   EXPECT_OUTPUT_HAS(r, "no emitter");
@@ -120,9 +123,11 @@ TEST(Cli, ClosedSceneReflectingEverythingFailsNumericallyWithoutHanging) {
 
 TEST(Cli, SolveWritesTraceRadiositiesJsonAndImage) {
   TempDir dir;
-  Result r = radlab("-q solve builtin:cube:rho=0.7 --subdiv 2 --solver gauss-seidel --steps 500 "
-                    "--trace " + dir.file("t.csv") + " --out " + dir.file("b.csv") + " --image " +
-                    dir.file("i.exr") + " --width 32 --height 32");
+  Result r = radlab(
+      "-q solve builtin:cube:rho=0.7 --subdiv 2 --solver gauss-seidel --steps 500 "
+      "--trace " +
+      dir.file("t.csv") + " --out " + dir.file("b.csv") + " --image " + dir.file("i.exr") +
+      " --width 32 --height 32");
   ASSERT_EQ(r.code, 0) << r.output;
   for (const char* f : {"t.csv", "b.csv", "t.run.json", "i.exr", "i.png"})
     EXPECT_TRUE(std::filesystem::exists(dir.file(f))) << f;

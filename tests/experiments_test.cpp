@@ -61,8 +61,8 @@ TEST(ExperimentSpec, ParsesAxesAndPlansRuns) {
 
 TEST(ExperimentSpec, AllMeansEveryRegisteredSolver) {
   TempDir dir;
-  ExperimentSpec spec = read_experiment(
-      dir.write("e.toml", "scenes = [\"builtin:cube\"]\nsolvers = [\"all\"]\n"));
+  ExperimentSpec spec =
+      read_experiment(dir.write("e.toml", "scenes = [\"builtin:cube\"]\nsolvers = [\"all\"]\n"));
   EXPECT_EQ(spec.solvers.size(), solver_registry().size());
 }
 
@@ -70,20 +70,23 @@ TEST(ExperimentSpec, ErrorsNameFileAndLine) {
   TempDir dir;
   expect_error<InputError>(
       [&] {
-        read_experiment(dir.write("a.toml", "scenes = [\"builtin:cube\"]\nsolvers = [\"jacobi\"]\n"
-                                            "budgt = 3\n"));
+        read_experiment(dir.write("a.toml",
+                                  "scenes = [\"builtin:cube\"]\nsolvers = [\"jacobi\"]\n"
+                                  "budgt = 3\n"));
       },
       {"a.toml:3", "budgt", "budget"});
   expect_error<InputError>(
       [&] {
-        read_experiment(dir.write("b.toml", "scenes = [\"builtin:cube\"]\nsolvers = [\"jacobi\"]\n"
-                                            "[budget]\nrows = 10\nsecs = 4\n"));
+        read_experiment(dir.write("b.toml",
+                                  "scenes = [\"builtin:cube\"]\nsolvers = [\"jacobi\"]\n"
+                                  "[budget]\nrows = 10\nsecs = 4\n"));
       },
       {"b.toml:5", "secs", "seconds"});
   expect_error<InputError>(
       [&] {
-        read_experiment(dir.write("c.toml", "scenes = [\"builtin:cube\"]\nsolvers = [\"jacobi\"]\n"
-                                            "[parameters.jacobi]\nomegaa = [1]\n"));
+        read_experiment(dir.write("c.toml",
+                                  "scenes = [\"builtin:cube\"]\nsolvers = [\"jacobi\"]\n"
+                                  "[parameters.jacobi]\nomegaa = [1]\n"));
       },
       {"c.toml:4", "omegaa", "omega"});
   expect_error<InputError>(
@@ -91,7 +94,8 @@ TEST(ExperimentSpec, ErrorsNameFileAndLine) {
       {"d.toml:"});
   expect_error<InputError>(
       [&] {
-        read_experiment(dir.write("e.toml", "scenes = [\"builtin:cube\"]\nsolvers = [\"nosuch\"]\n"));
+        read_experiment(
+            dir.write("e.toml", "scenes = [\"builtin:cube\"]\nsolvers = [\"nosuch\"]\n"));
       },
       {"e.toml:2", "nosuch", "gauss-seidel"});
   expect_error<InputError>([&] { read_experiment(dir.file("missing.toml")); },
@@ -133,7 +137,8 @@ TEST(Sweep, WritesDocumentedColumnsAndRepeatsExactly) {
   EXPECT_EQ(without_time(trace1, trace_time), without_time(trace2, trace_time));
   EXPECT_EQ(without_time(summary1, summary_time_columns()),
             without_time(summary2, summary_time_columns()));
-  EXPECT_TRUE(std::filesystem::exists(dir.file("first/runs/gauss-seidel_scene_cube_rho_0.8_omega_1.run.json")));
+  EXPECT_TRUE(std::filesystem::exists(
+      dir.file("first/runs/gauss-seidel_scene_cube_rho_0.8_omega_1.run.json")));
   // Both runs end on their budget, below the initial error.
   const size_t rms = summary1.column("rms_rel");
   for (const auto& row : summary1.rows) EXPECT_LT(std::stod(row[rms]), 0.1);
@@ -158,7 +163,10 @@ TEST(Sweep, ShardsMergeToTheUnsplitResult) {
             without_time(read_csv(dir.file("whole/summary.csv")), summary_time_columns()));
   // A run in two shards is refused.
   expect_error<InputError>(
-      [&] { merge_sweeps({dir.file("s0"), dir.file("whole")}, dir.file("bad")); }, {"is in"});
+      [&] {
+        merge_sweeps({dir.file("s0"), dir.file("whole")}, dir.file("bad"));
+      },
+      {"is in"});
 }
 
 TEST(Sweep, PlotScriptRunsOnATrace) {
@@ -168,8 +176,8 @@ TEST(Sweep, PlotScriptRunsOnATrace) {
   ExperimentSpec spec = read_experiment(dir.write("e.toml", kTwoRuns));
   run_sweep(spec, {dir.file("out"), 0, 1, "test"});
   const std::string script = std::string(RADLAB_SOURCE_DIR) + "/scripts/plot_traces.py";
-  const std::string command = "/usr/bin/python3 " + script + " " + dir.file("out") +
-                              " --formats png,pdf > /dev/null";
+  const std::string command =
+      "/usr/bin/python3 " + script + " " + dir.file("out") + " --formats png,pdf > /dev/null";
   ASSERT_EQ(std::system(command.c_str()), 0);
   for (const char* name : {"cube_rho_0.8_rms_rel_vs_rows.png", "cube_rho_0.8_rms_rel_vs_rows.pdf",
                            "cube_rho_0.8_p_mean_vs_seconds.png"})
@@ -218,7 +226,8 @@ TEST(Runner, BudgetsStopWhereAsked) {
     auto solver = make_solver("gauss-seidel", none);
     Budget budget;
     budget.rows = rows;
-    RunResult r = run_solver(*solver, *problem, budget, CheckpointSchedule{}, {"r", "", "", ""}, nullptr);
+    RunResult r =
+        run_solver(*solver, *problem, budget, CheckpointSchedule{}, {"r", "", "", ""}, nullptr);
     EXPECT_EQ(static_cast<long long>(r.rows), rows);
     EXPECT_EQ(r.stop_reason, "row budget");
     EXPECT_EQ(r.history.back().rows, r.rows);  // the last step is always a checkpoint

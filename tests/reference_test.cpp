@@ -1,5 +1,7 @@
 // The certified reference: closed-form cases, the furnace identity, the certificate checked
 // against an independent solve, and the refusal of systems with no finite solution.
+#include "solvers/reference.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -8,7 +10,6 @@
 #include "formfactor/raycast.h"
 #include "scene/builtin_scenes.h"
 #include "scene/validate.h"
-#include "solvers/reference.h"
 #include "tests/test_support.h"
 
 namespace radlab {

@@ -59,8 +59,8 @@ TEST(ObjReader, ReadsPolygonsAndMaterials) {
 TEST(ObjReader, NegativeIndicesAreRelative) {
   TempDir dir;
   dir.write("m.mtl", kMtl);
-  Scene scene = read_obj(dir.write(
-      "s.obj", "mtllib m.mtl\nusemtl white\nv 0 0 0\nv 1 0 0\nv 1 1 0\nf -3 -2 -1\n"));
+  Scene scene = read_obj(
+      dir.write("s.obj", "mtllib m.mtl\nusemtl white\nv 0 0 0\nv 1 0 0\nv 1 1 0\nf -3 -2 -1\n"));
   ASSERT_EQ(scene.polygons.size(), 1u);
   EXPECT_EQ(scene.polygons[0].vertices[2], Vec3(1, 1, 0));
 }
@@ -118,8 +118,9 @@ TEST(Validation, MaterialChecksNameTheMaterial) {
 }
 
 TEST(Validation, ZeroAreaPolygonIsDroppedWithItsName) {
-  Scene scene = testing::scene_of(
-      {testing::square_z(0, true), {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}}, {{0, 0, 0}, {0, 0, 0}, {1, 1, 0}}});
+  Scene scene = testing::scene_of({testing::square_z(0, true),
+                                   {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}},
+                                   {{0, 0, 0}, {0, 0, 0}, {1, 1, 0}}});
   ValidationReport report = validate_scene(scene);
   EXPECT_EQ(scene.polygons.size(), 1u);
   EXPECT_EQ(report.dropped, 2);
@@ -180,7 +181,8 @@ TEST(BuiltinScenes, CornellBoxIsHonestAboutItsData) {
   EXPECT_EQ(loaded.scene.emitter_count(), 1);
   ASSERT_TRUE(loaded.scene.camera.has_value());
   // Floor area of the published box: a quadrilateral 552.8/549.6 x 559.2 mm.
-  EXPECT_NEAR(geometry::area(loaded.scene.polygons[0].vertices), 0.5*(0.5528+0.5496)*0.5592, 1e-6);
+  EXPECT_NEAR(geometry::area(loaded.scene.polygons[0].vertices), 0.5 * (0.5528 + 0.5496) * 0.5592,
+              1e-6);
   // Every wall faces into the room; the light faces down.
   EXPECT_LT(geometry::unit_normal(loaded.scene.polygons[1].vertices).y, -0.999);
 }
@@ -210,7 +212,8 @@ TEST_P(MeshTest, SubdivisionKeepsAreaAndCounts) {
   EXPECT_NEAR(mesh.total_area, polygon_area, 1e-12 * polygon_area);
   for (size_t p = 0; p < loaded.scene.polygons.size(); ++p) {
     double sum = 0.0;
-    for (uint32_t e = mesh.first_element_of_polygon[p]; e < mesh.first_element_of_polygon[p + 1]; ++e) {
+    for (uint32_t e = mesh.first_element_of_polygon[p]; e < mesh.first_element_of_polygon[p + 1];
+         ++e) {
       EXPECT_EQ(mesh.polygon[e], p);
       EXPECT_GT(glm::dot(mesh.normal[e], geometry::unit_normal(loaded.scene.polygons[p].vertices)),
                 0.999999);

@@ -1,0 +1,241 @@
+#include "formfactor/matrix_cache.h"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstddef>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <memory>
+
+#include "core/log.h"
+#include "core/random.h"
+
+namespace radlab {
+
+uint64_t hash_bytes(const void* data, size_t size, uint64_t seed) {
+  const auto* bytes = static_cast<const unsigned char*>(data);
+  uint64_t lane[4] = {mix64(seed ^ 0x243f6a8885a308d3ULL), mix64(seed ^ 0x13198a2e03707344ULL),
+                      mix64(seed ^ 0xa4093822299f31d0ULL), mix64(seed ^ 0x082efa98ec4e6c89ULL)};
+  size_t k = 0;
+  // Four independent lanes keep the multipliers busy: ~several GB/s on one core.
+  for (; k + 32 <= size; k += 32)
+    for (int l = 0; l < 4; ++l) {
+      uint64_t word;
+      std::memcpy(&word, bytes + k + 8 * size_t(l), 8);
+      lane[l] = mix64(lane[l] ^ word) + word;
+    }
+  uint64_t h = mix64(seed + size);
+  for (int l = 0; l < 4; ++l) h = mix64(h ^ lane[l]);
+  for (; k < size; ++k) h = mix64(h ^ (uint64_t(bytes[k]) << 8) ^ k);
+  return h;
+}
+
+std::string MatrixCacheKey::file_name() const {
+  char buffer[40];
+  std::snprintf(buffer, sizeof buffer, "%016llx%016llx.ffm",
+                static_cast<unsigned long long>(hash[0]), static_cast<unsigned long long>(hash[1]));
+  return buffer;
+}
+
+MatrixCacheKey matrix_cache_key(const Mesh& mesh, const std::string& method,
+                                const std::string& parameters, Precision precision) {
+  // The mesh: exact bytes of everything that determines F.
+  auto mesh_hash = [&](uint64_t seed) {
+    uint64_t h = hash_bytes(mesh.vertices.data(), mesh.vertices.size() * sizeof(Vec3), seed);
+    h = hash_bytes(mesh.vertex_index.data(), mesh.vertex_index.size() * sizeof(uint32_t), h);
+    h = hash_bytes(mesh.first_vertex.data(), mesh.first_vertex.size() * sizeof(uint32_t), h);
+    h = hash_bytes(mesh.polygon.data(), mesh.polygon.size() * sizeof(uint32_t), h);
+    return h;
+  };
+  char mesh_text[40];
+  std::snprintf(mesh_text, sizeof mesh_text, "%016llx%016llx",
+                static_cast<unsigned long long>(mesh_hash(1)),
+                static_cast<unsigned long long>(mesh_hash(2)));
+  MatrixCacheKey key;
+  key.text = "format=" + std::to_string(MatrixCache::kFormatVersion) + ";method=" + method +
+             ";parameters=" + parameters +
+             ";precision=" + (precision == Precision::kFloat ? "float" : "double") +
+             ";elements=" + std::to_string(mesh.size()) + ";mesh=" + mesh_text;
+  key.hash[0] = hash_bytes(key.text.data(), key.text.size(), 0x5eed0001);
+  key.hash[1] = hash_bytes(key.text.data(), key.text.size(), 0x5eed0002);
+  return key;
+}
+
+std::filesystem::path default_cache_dir() {
+  if (const char* dir = std::getenv("RADLAB_CACHE_DIR"); dir && *dir) return dir;
+  if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg)
+    return std::filesystem::path(xdg) / "radlab";
+  if (const char* home = std::getenv("HOME"); home && *home)
+    return std::filesystem::path(home) / ".cache" / "radlab";
+  return {};
+}
+
+namespace {
+
+constexpr char kMagic[8] = {'R', 'A', 'D', 'L', 'A', 'B', 'F', 'F'};
+constexpr uint32_t kByteOrderMark = 0x01020304u;
+
+// Fixed-size, fixed-layout header (all fields naturally aligned, no padding).
+struct Header {
+  char magic[8];
+  uint32_t version;
+  uint32_t byte_order;
+  uint64_t n;
+  uint32_t precision;  // 0 float, 1 double
+  uint32_t key_text_bytes;
+  uint64_t key_hash[2];
+  uint64_t payload_bytes;
+  uint64_t payload_checksum;
+  uint64_t rays, kernel_evaluations, pairs_culled, pairs_unoccluded, pairs_traced;
+  double build_seconds;
+  int64_t build_threads;
+  uint64_t header_checksum;  // of every byte above, and of the key text
+};
+static_assert(sizeof(Header) == 128, "the cache header layout must not change silently");
+
+uint64_t header_checksum(const Header& h, const std::string& key_text) {
+  const uint64_t partial = hash_bytes(&h, offsetof(Header, header_checksum), 0xc0ffee);
+  return hash_bytes(key_text.data(), key_text.size(), partial);
+}
+
+struct FileCloser {
+  void operator()(std::FILE* f) const {
+    if (f) std::fclose(f);
+  }
+};
+using File = std::unique_ptr<std::FILE, FileCloser>;
+
+constexpr uint64_t kPayloadSeed = 0xfeedface;
+
+}  // namespace
+
+std::optional<FormFactorMatrix> MatrixCache::load(const MatrixCacheKey& key,
+                                                  BuildReport* report) const {
+  const auto start = std::chrono::steady_clock::now();
+  const std::filesystem::path file = path(key);
+  std::error_code ec;
+  if (!std::filesystem::exists(file, ec)) return std::nullopt;
+  const uint64_t file_size = std::filesystem::file_size(file, ec);
+
+  auto reject = [&](const std::string& why) -> std::optional<FormFactorMatrix> {
+    log::warning("form-factor cache: " + file.string() + ": " + why +
+                 "; the file is not trusted, deleted, and the matrix rebuilt");
+    std::error_code ignored;
+    std::filesystem::remove(file, ignored);
+    return std::nullopt;
+  };
+  if (ec) return reject("cannot read its size (" + ec.message() + ")");
+
+  File f(std::fopen(file.c_str(), "rb"));
+  if (!f) return std::nullopt;  // vanished or unreadable: just a miss
+  Header h{};
+  if (file_size < sizeof(Header) || std::fread(&h, sizeof h, 1, f.get()) != 1)
+    return reject("truncated header");
+  if (std::memcmp(h.magic, kMagic, sizeof kMagic) != 0) return reject("not a radlab cache file");
+  if (h.byte_order != kByteOrderMark) return reject("written on a machine of another byte order");
+  if (h.version != kFormatVersion)
+    return reject("stale format version " + std::to_string(h.version) + " (this radlab writes " +
+                  std::to_string(kFormatVersion) + ")");
+  if (h.key_text_bytes > (1u << 20)) return reject("corrupt header (key text length)");
+  std::string key_text(h.key_text_bytes, '\0');
+  if (h.key_text_bytes &&
+      std::fread(key_text.data(), 1, key_text.size(), f.get()) != key_text.size())
+    return reject("truncated key");
+  if (h.header_checksum != header_checksum(h, key_text)) return reject("header checksum mismatch");
+  if (key_text != key.text || h.key_hash[0] != key.hash[0] || h.key_hash[1] != key.hash[1])
+    return reject("stale: stored for a different key (" + key_text + ")");
+  const Precision precision = h.precision == 1 ? Precision::kDouble : Precision::kFloat;
+  const uint64_t element_bytes = precision == Precision::kFloat ? sizeof(float) : sizeof(double);
+  if (h.precision > 1 || h.n > (uint64_t(1) << 24) || h.payload_bytes != h.n * h.n * element_bytes)
+    return reject("corrupt header (size fields)");
+  if (file_size != sizeof(Header) + h.key_text_bytes + h.payload_bytes)
+    return reject("size " + std::to_string(file_size) + " bytes, expected " +
+                  std::to_string(sizeof(Header) + h.key_text_bytes + h.payload_bytes) +
+                  " (truncated or padded)");
+
+  FormFactorMatrix matrix(size_t(h.n), precision);
+  if (h.payload_bytes && std::fread(matrix.data(), 1, h.payload_bytes, f.get()) != h.payload_bytes)
+    return reject("truncated payload");
+  if (hash_bytes(matrix.data(), h.payload_bytes, kPayloadSeed) != h.payload_checksum)
+    return reject("payload checksum mismatch (corrupt)");
+
+  if (report) {
+    report->cost.rays = h.rays;
+    report->cost.kernel_evaluations = h.kernel_evaluations;
+    report->cost.pairs_culled = h.pairs_culled;
+    report->cost.pairs_unoccluded = h.pairs_unoccluded;
+    report->cost.pairs_traced = h.pairs_traced;
+    report->seconds = h.build_seconds;
+    report->threads = int(h.build_threads);
+    report->cached = true;
+    report->cache_file = file.string();
+    report->load_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
+  return matrix;
+}
+
+bool MatrixCache::store(const MatrixCacheKey& key, const FormFactorMatrix& matrix,
+                        const BuildReport& report) const {
+  std::error_code ec;
+  std::filesystem::create_directories(folder_, ec);
+  if (ec) {
+    log::warning("form-factor cache: cannot create " + folder_.string() + " (" + ec.message() +
+                 "); the matrix is not cached");
+    return false;
+  }
+  const size_t n = matrix.size();
+  Header h{};
+  std::memcpy(h.magic, kMagic, sizeof kMagic);
+  h.version = kFormatVersion;
+  h.byte_order = kByteOrderMark;
+  h.n = n;
+  h.precision = matrix.precision() == Precision::kDouble ? 1 : 0;
+  h.key_text_bytes = uint32_t(key.text.size());
+  h.key_hash[0] = key.hash[0];
+  h.key_hash[1] = key.hash[1];
+  h.payload_bytes = matrix.bytes();
+  h.payload_checksum = hash_bytes(matrix.data(), matrix.bytes(), kPayloadSeed);
+  h.rays = report.cost.rays;
+  h.kernel_evaluations = report.cost.kernel_evaluations;
+  h.pairs_culled = report.cost.pairs_culled;
+  h.pairs_unoccluded = report.cost.pairs_unoccluded;
+  h.pairs_traced = report.cost.pairs_traced;
+  h.build_seconds = report.seconds;
+  h.build_threads = report.threads;
+  h.header_checksum = header_checksum(h, key.text);
+
+  // A name no other writer (process or thread) uses; renamed into place once complete.
+  static std::atomic<uint64_t> counter{0};
+  const std::filesystem::path final_path = path(key);
+  const std::filesystem::path temp =
+      final_path.string() + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(++counter);
+  bool ok = false;
+  {
+    File f(std::fopen(temp.c_str(), "wb"));
+    if (f) {
+      ok = std::fwrite(&h, sizeof h, 1, f.get()) == 1 &&
+           std::fwrite(key.text.data(), 1, key.text.size(), f.get()) == key.text.size() &&
+           std::fwrite(matrix.data(), 1, matrix.bytes(), f.get()) == matrix.bytes();
+      ok = std::fflush(f.get()) == 0 && ok;
+      ok = std::fclose(f.release()) == 0 && ok;
+    }
+  }
+  if (ok) {
+    std::filesystem::rename(temp, final_path, ec);
+    ok = !ec;
+  }
+  if (!ok) {
+    log::warning("form-factor cache: cannot write " + final_path.string() +
+                 (ec ? " (" + ec.message() + ")" : std::string(" (write failed)")) +
+                 "; the matrix is not cached");
+    std::error_code ignored;
+    std::filesystem::remove(temp, ignored);
+  }
+  return ok;
+}
+
+}  // namespace radlab

@@ -1,0 +1,57 @@
+// The visibility fraction V_ij of a pair of elements, shared by `raycast` and `exact`:
+//
+//   V_ij = 1                        the scene is a convex enclosure, or the pair's shaft holds no
+//                                   polygon that could block it (shaft.h): no rays;
+//   V_ij = share of unblocked rays  otherwise: `rays` Embree occlusion rays between stratified,
+//                                   jittered points on i and on j, paired by a random permutation;
+//                                   hits on i's and j's own polygons are ignored (a segment meets
+//                                   them only at its ends: such hits are rounding on grazing rays).
+//
+// The points depend only on (seed, min(i,j), max(i,j)), and the shaft decision only on the
+// unordered pair, so V_ij = V_ji exactly.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "formfactor/embree_scene.h"
+#include "formfactor/form_factor_method.h"
+#include "formfactor/shaft.h"
+
+namespace radlab {
+
+class Visibility {
+ public:
+  // `shaft_culling` false traces every pair that is not in a convex enclosure (for comparisons).
+  Visibility(const Scene& scene, const Mesh& mesh, int rays, uint64_t seed, bool shaft_culling);
+  ~Visibility();
+
+  // V_ij in [0,1]; counts the pair in cost.pairs_unoccluded or cost.pairs_traced (and its rays).
+  // Thread-safe.
+  double fraction(size_t i, size_t j, RowCost& cost) const;
+
+  // True when the pair needs rays (some polygon may block it); does no ray casting.
+  bool needs_rays(size_t i, size_t j) const;
+  // A polygon that may block the pair, or -1 (for messages).
+  int64_t possible_blocker(size_t i, size_t j) const;
+
+  bool convex_enclosure() const { return convex_enclosure_; }
+  bool casts_rays() const { return !convex_enclosure_; }
+  std::vector<std::string> left_out() const;
+
+ private:
+  double trace(size_t i, size_t j, RowCost& cost) const;
+
+  const Mesh& mesh_;
+  int rays_;
+  uint64_t seed_;
+  bool convex_enclosure_ = false;
+  std::unique_ptr<ShaftCuller> shafts_;  // null in a convex enclosure or without shaft culling
+  std::unique_ptr<EmbreeScene> embree_;  // null in a convex enclosure
+};
+
+// 1e-9 of the scene's bounding-box diagonal: the distance below which points count as on a plane.
+double plane_epsilon(const Mesh& mesh);
+
+}  // namespace radlab
