@@ -24,6 +24,10 @@ void add_solvers_command(CLI::App& app) {
       for (const auto& [key, help] : m.parameters)
         std::printf("      %-16s %s\n", key.c_str(), help.c_str());
     }
+    std::printf("\n  any method, with a dense matrix (--ff-mode cached):\n");
+    std::printf("      %-16s %s\n", "symmetrise",
+                "true: A_i F_ij and A_j F_ji averaged, so every solver and the reference solve "
+                "the same reciprocal system; false keeps the raw matrix");
   });
 }
 

@@ -22,7 +22,9 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
   ParamBag ff_bag =
       ParamBag::from_assignments(spec.ff_set, "form factors '" + spec.ff_method + "'");
   // Generic form-factor option (any method): symmetrise the dense matrix after building/loading.
-  const bool symmetrise_ff = ff_bag.get_bool("symmetrise", false);
+  // On by default for a dense matrix, so shooting, gathering, CG and the reference all solve the
+  // same (reciprocal) system (docs/solvers.md); rows computed on the fly cannot be symmetrised.
+  const bool symmetrise_ff = ff_bag.get_bool("symmetrise", spec.row_mode == RowMode::kCached);
   problem->method =
       make_form_factor_method(spec.ff_method, ff_bag, problem->scene(), problem->mesh);
   problem->ff_parameters =

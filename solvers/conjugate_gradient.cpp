@@ -232,8 +232,9 @@ class ConjugateGradientSolver final : public Solver {
           "defect " +
           std::to_string(worst) + " at elements " + std::to_string(wi) + ", " + std::to_string(wj) +
           " exceeds reciprocity_tolerance = " + std::to_string(options_.reciprocity_tolerance) +
-          ". Symmetrise the matrix first (formfactor symmetrise(): ask for it in the "
-          "form-factor options), or set symmetrise=true to solve the symmetrised system");
+          ". Symmetrise the cached matrix (--ff-set symmetrise=true, the default with "
+          "--ff-mode cached), or set the solver's symmetrise=true to solve the symmetrised "
+          "system");
   }
 
   ConjugateGradientOptions options_;

@@ -993,7 +993,7 @@ TEST(PrepareProblem, CachesTheMatrixAndSymmetrisesOnRequest) {
   spec.scene = "builtin:cornell";
   spec.mesh.subdivisions = 2;
   spec.ff_method = "hemicube";
-  spec.ff_set = {"resolution=40"};
+  spec.ff_set = {"resolution=40", "symmetrise=false"};
   spec.need_reference = false;
   spec.cache_dir = dir.path().string();
   auto first = prepare_problem(spec);
@@ -1005,8 +1005,9 @@ TEST(PrepareProblem, CachesTheMatrixAndSymmetrisesOnRequest) {
   EXPECT_EQ(std::memcmp(second->matrix.data(), first->matrix.data(), first->matrix.bytes()), 0);
   EXPECT_EQ(second->build.cost.kernel_evaluations, first->build.cost.kernel_evaluations);
 
-  // symmetrise=true: same cached matrix, symmetrised after loading, named in the parameters.
-  spec.ff_set.push_back("symmetrise=true");
+  // The default with a dense matrix is symmetrise=true: the same cached matrix, symmetrised after
+  // loading, named in the parameters.
+  spec.ff_set = {"resolution=40"};
   auto symmetrised = prepare_problem(spec);
   EXPECT_TRUE(symmetrised->build.cached);
   EXPECT_EQ(symmetrised->ff_parameters, "resolution=40,weights=midpoint,symmetrise=true");
@@ -1018,7 +1019,10 @@ TEST(PrepareProblem, CachesTheMatrixAndSymmetrisesOnRequest) {
   EXPECT_FALSE(uncached->build.cached);
   EXPECT_TRUE(uncached->build.cache_file.empty());
 
+  // Rows on the fly cannot be symmetrised: the default turns off, an explicit request is an error.
   spec.row_mode = RowMode::kOnTheFly;
+  EXPECT_EQ(prepare_problem(spec)->ff_parameters, "resolution=40,weights=midpoint");
+  spec.ff_set.push_back("symmetrise=true");
   EXPECT_THROW(prepare_problem(spec), UsageError);
 }
 
