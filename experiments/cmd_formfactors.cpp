@@ -23,14 +23,22 @@ void add_formfactors_command(CLI::App& app) {
     auto problem = prepare_problem(spec);
     std::printf("method       %s (%s)\n", spec.ff_method.c_str(), problem->ff_parameters.c_str());
     std::printf("elements     %zu\n", problem->mesh.size());
-    std::printf("time         %.3f s on %d threads\n", problem->build.seconds,
-                problem->build.threads);
+    std::printf(
+        "time         %.3f s on %d threads%s\n", problem->build.seconds, problem->build.threads,
+        problem->build.cached
+            ? (" (when built; loaded now from the cache " + problem->build.cache_file + ")").c_str()
+            : "");
     std::printf("rays         %llu\n", static_cast<unsigned long long>(problem->build.cost.rays));
     std::printf("pairs        %llu culled (facing away / coplanar), %llu unoccluded, %llu traced\n",
                 static_cast<unsigned long long>(problem->build.cost.pairs_culled),
                 static_cast<unsigned long long>(problem->build.cost.pairs_unoccluded),
                 static_cast<unsigned long long>(problem->build.cost.pairs_traced));
-    std::printf("diagnostics  %s\n", problem->diagnostics.summary().c_str());
+    if (problem->ff_parameters.find("symmetrise=true") != std::string::npos) {
+      std::printf("computed     %s\n", problem->raw_diagnostics.summary().c_str());
+      std::printf("symmetrised  %s\n", problem->diagnostics.summary().c_str());
+    } else {
+      std::printf("diagnostics  %s\n", problem->diagnostics.summary().c_str());
+    }
     for (const std::string& note : problem->method->left_out())
       std::printf("left out     %s\n", note.c_str());
     if (!out->empty()) {

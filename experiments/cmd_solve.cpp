@@ -1,5 +1,6 @@
 // `radlab solve SCENE --solver NAME`: one run of one solver, measured against the certified
 // reference: trace CSV, final radiosities, run.json and (optionally) an EXR + PNG image.
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 
@@ -22,8 +23,9 @@ struct SolveOptions {
   FormFactorOptions ff;
   std::string solver;
   std::vector<std::string> set;
-  long long steps = -1, rows = -1;
-  double seconds = -1, tol = -1;
+  long long steps = 0, rows = 0;
+  double seconds = 0, tol = 0;
+  bool steps_given = false, rows_given = false, seconds_given = false, tol_given = false;
   std::string trace, out, image, json;
   int width = 512, height = 512;
   bool display_image = true;
@@ -54,10 +56,25 @@ void run(const SolveOptions& o, int argc, char** argv) {
   std::unique_ptr<Solver> solver = make_solver(o.solver, bag);  // validates before any work
 
   Budget budget;
-  if (o.steps >= 0) budget.steps = o.steps;
-  if (o.rows >= 0) budget.rows = o.rows;
-  if (o.seconds >= 0) budget.seconds = o.seconds;
-  if (o.tol >= 0) budget.tol = o.tol;
+  if (o.steps_given) {
+    if (o.steps < 1) throw UsageError("--steps must be >= 1, got " + std::to_string(o.steps));
+    budget.steps = o.steps;
+  }
+  if (o.rows_given) {
+    if (o.rows < 1) throw UsageError("--rows must be >= 1, got " + std::to_string(o.rows));
+    budget.rows = o.rows;
+  }
+  if (o.seconds_given) {
+    if (!(o.seconds > 0.0 && std::isfinite(o.seconds)))
+      throw UsageError("--seconds must be a finite number > 0, got " + std::to_string(o.seconds));
+    budget.seconds = o.seconds;
+  }
+  if (o.tol_given) {
+    if (!(o.tol > 0.0 && o.tol < 1.0))
+      throw UsageError("--tol must lie in (0,1) (a bound relative to max B*), got " +
+                       std::to_string(o.tol));
+    budget.tol = o.tol;
+  }
 
   ProblemSpec spec = make_spec(o.scene, o.ff);
   auto problem = prepare_problem(spec);
@@ -120,19 +137,26 @@ void add_solve_command(CLI::App& app, int argc, char** argv) {
   command->add_option("--solver", o->solver, "solver name (see `radlab solvers`)")->required();
   command->add_option("--set", o->set, "solver parameter key=value (repeatable)")
       ->allow_extra_args(false);
-  command->add_option("--steps", o->steps, "stop after N solver steps");
-  command->add_option("--rows", o->rows, "stop after N form-factor rows");
-  command->add_option("--seconds", o->seconds, "stop after T seconds of solver time");
-  command->add_option("--tol", o->tol,
-                      "stop when the certified bound ||B-B*||_inf / max B* <= X (checked at "
-                      "checkpoints); without any budget: 3n steps");
+  auto* steps = command->add_option("--steps", o->steps, "stop after N solver steps");
+  auto* rows = command->add_option("--rows", o->rows, "stop after N form-factor rows");
+  auto* seconds =
+      command->add_option("--seconds", o->seconds, "stop after T seconds of solver time");
+  auto* tol = command->add_option("--tol", o->tol,
+                                  "stop when the certified bound ||B-B*||_inf / max B* <= X "
+                                  "(checked at checkpoints); without any budget: 3n steps");
   command->add_option("--trace", o->trace, "trace CSV (one row per checkpoint and channel)");
   command->add_option("--out", o->out, "final radiosities CSV element,area,B_r,B_g,B_b");
   command->add_option("--image", o->image, "EXR image of the display solution (PNG beside it)");
   command->add_option("--width", o->width, "image width in pixels (default 512)");
   command->add_option("--height", o->height, "image height in pixels (default 512)");
   command->add_option("--json", o->json, "run.json path (default: beside the trace)");
-  command->callback([o, argc, argv]() { run(*o, argc, argv); });
+  command->callback([=]() {
+    o->steps_given = steps->count() > 0;
+    o->rows_given = rows->count() > 0;
+    o->seconds_given = seconds->count() > 0;
+    o->tol_given = tol->count() > 0;
+    run(*o, argc, argv);
+  });
 }
 
 }  // namespace radlab::cli

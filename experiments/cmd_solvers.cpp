@@ -7,9 +7,28 @@
 
 namespace radlab::cli {
 
+namespace {
+
+// The README's solver table, from the registry (tests/cli_test.cpp checks the README holds it).
+void print_markdown_table() {
+  std::printf("| name | method | paper | one step | parameters |\n|---|---|---|---|---|\n");
+  for (const SolverInfo& s : solver_registry()) {
+    std::string parameters;
+    for (const ParameterInfo& p : s.parameters)
+      parameters += (parameters.empty() ? "" : ", ") + ("`" + p.name + "`");
+    std::printf("| `%s` | %s | %s | %s | %s |\n", s.name.c_str(), s.summary.c_str(),
+                s.reference.c_str(), s.cost.c_str(), parameters.empty() ? "—" : parameters.c_str());
+  }
+}
+
+}  // namespace
+
 void add_solvers_command(CLI::App& app) {
   auto* command = app.add_subcommand("solvers", "list the solvers and form-factor methods");
-  command->callback([]() {
+  auto markdown = std::make_shared<bool>(false);
+  command->add_flag("--markdown", *markdown, "print the solver table as Markdown (the README's)");
+  command->callback([markdown]() {
+    if (*markdown) return print_markdown_table();
     std::printf("Solvers (radlab solve SCENE --solver NAME [--set key=value]...):\n\n");
     for (const SolverInfo& s : solver_registry()) {
       std::printf("  %-20s %s\n", s.name.c_str(), s.summary.c_str());

@@ -8,9 +8,6 @@
 #include "core/text.h"
 #include "solvers/registry.h"
 
-#ifndef RADLAB_GIT_SHA
-#define RADLAB_GIT_SHA "unknown"
-#endif
 #ifndef RADLAB_BUILD_TYPE
 #define RADLAB_BUILD_TYPE "unknown"
 #endif
@@ -28,7 +25,7 @@ void write_radiosity_csv(const std::string& path, const Mesh& mesh, const Radios
 void write_build_info(JsonWriter& json) {
   json.key("build").begin_object();
   json.field("radlab_version", "0.1.0");
-  json.field("git_sha", RADLAB_GIT_SHA);
+  json.field("git_sha", build_git_sha());
   json.field("compiler", std::string("g++ ") + __VERSION__);
   json.field("build_type", RADLAB_BUILD_TYPE);
   json.field("threads", tbb::info::default_concurrency());
@@ -73,6 +70,11 @@ void write_problem_info(JsonWriter& json, const Problem& p) {
     json.field("reciprocity_defect_relative", p.diagnostics.reciprocity_defect_relative);
     json.field("negative_entries", p.diagnostics.negative_entries);
     json.field("non_finite_entries", p.diagnostics.non_finite_entries);
+    // The method's own defects, before symmetrising (equal to the above when not symmetrised).
+    json.field("computed_row_sum_min", p.raw_diagnostics.row_sum_min);
+    json.field("computed_row_sum_max", p.raw_diagnostics.row_sum_max);
+    json.field("computed_reciprocity_defect_relative",
+               p.raw_diagnostics.reciprocity_defect_relative);
   }
   json.end_object();
 

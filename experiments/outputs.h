@@ -15,6 +15,10 @@ namespace radlab {
 // order.
 void write_radiosity_csv(const std::string& path, const Mesh& mesh, const Radiosity& B);
 
+// The git revision this binary was built from ("-dirty" when tracked files differed), written
+// at build time by cmake/GitSha.cmake.
+const char* build_git_sha();
+
 // Facts about the build and the machine: git SHA, compiler, build type, threads.
 void write_build_info(JsonWriter& json);
 

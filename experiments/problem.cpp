@@ -25,6 +25,12 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
   // On by default for a dense matrix, so shooting, gathering, CG and the reference all solve the
   // same (reciprocal) system (docs/solvers.md); rows computed on the fly cannot be symmetrised.
   const bool symmetrise_ff = ff_bag.get_bool("symmetrise", spec.row_mode == RowMode::kCached);
+  // Generic too: the stored precision, as --precision or --ff-set precision=... (the same thing).
+  const std::string default_precision = spec.precision == Precision::kDouble ? "double" : "float";
+  const std::string precision_name =
+      ff_bag.get_choice("precision", default_precision, {"float", "double"});
+  const Precision precision = precision_name == "double" ? Precision::kDouble : Precision::kFloat;
+  problem->spec.precision = precision;
   problem->method =
       make_form_factor_method(spec.ff_method, ff_bag, problem->scene(), problem->mesh);
   problem->ff_parameters =
@@ -44,7 +50,7 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
       if (!dir.empty()) {
         cache.emplace(dir);
         key = matrix_cache_key(problem->mesh, problem->method->name(),
-                               problem->method->parameters(), spec.precision);
+                               problem->method->parameters(), precision);
       }
     }
     std::optional<FormFactorMatrix> cached =
@@ -55,18 +61,29 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
     } else {
       Progress progress("form factors (" + spec.ff_method + ", " + std::to_string(n) + " rows)",
                         "rows", double(n));
-      problem->matrix = build_matrix(*problem->method, n, spec.precision, problem->build,
+      problem->matrix = build_matrix(*problem->method, n, precision, problem->build,
                                      [&](size_t done, size_t) { progress.update(double(done)); });
       progress.finish(std::to_string(problem->build.cost.rays) + " visibility rays");
       log::info("form factors: " + problem->build.summary());
-      if (cache && cache->store(key, problem->matrix, problem->build))
-        problem->build.cache_file = cache->path(key).string();
     }
-    if (symmetrise_ff) symmetrise(problem->matrix, problem->mesh.area);
-    problem->diagnostics = diagnose(problem->matrix, problem->mesh.area);
-    log::info("form factors: " + problem->diagnostics.summary());
-    if (problem->diagnostics.non_finite_entries > 0 || problem->diagnostics.negative_entries > 0)
-      throw NumericalError("form factors: " + problem->diagnostics.summary());
+    // The method's own matrix is checked (and reported) before anything hides its defects; a
+    // matrix with negative or non-finite entries is never cached or used.
+    problem->raw_diagnostics = diagnose(problem->matrix, problem->mesh.area);
+    if (problem->raw_diagnostics.non_finite_entries > 0 ||
+        problem->raw_diagnostics.negative_entries > 0)
+      throw NumericalError("form factors '" + spec.ff_method +
+                           "': " + problem->raw_diagnostics.summary());
+    if (cache && !problem->build.cached && cache->store(key, problem->matrix, problem->build))
+      problem->build.cache_file = cache->path(key).string();
+    if (symmetrise_ff) {
+      log::info("form factors (as computed): " + problem->raw_diagnostics.summary());
+      symmetrise(problem->matrix, problem->mesh.area);
+      problem->diagnostics = diagnose(problem->matrix, problem->mesh.area);
+      log::info("form factors (symmetrised): " + problem->diagnostics.summary());
+    } else {
+      problem->diagnostics = problem->raw_diagnostics;
+      log::info("form factors: " + problem->diagnostics.summary());
+    }
   }
 
   if (spec.row_mode == RowMode::kCached)

@@ -42,8 +42,9 @@ struct Problem {
   std::string ff_parameters;  // resolved, canonical
   FormFactorMatrix matrix;    // empty (size 0) for streaming runs without a reference
   BuildReport build;
-  MatrixDiagnostics diagnostics;
-  std::unique_ptr<System> system;  // rows from the matrix, or on the fly (RowMode)
+  MatrixDiagnostics diagnostics;      // of the matrix the solvers use (symmetrised if asked)
+  MatrixDiagnostics raw_diagnostics;  // of the matrix as the method computed it
+  std::unique_ptr<System> system;     // rows from the matrix, or on the fly (RowMode)
   std::optional<Reference> reference;
 
   const Scene& scene() const { return loaded.scene; }

@@ -55,7 +55,8 @@ MatrixCacheKey matrix_cache_key(const Mesh& mesh, const std::string& method,
                 static_cast<unsigned long long>(mesh_hash(1)),
                 static_cast<unsigned long long>(mesh_hash(2)));
   MatrixCacheKey key;
-  key.text = "format=" + std::to_string(MatrixCache::kFormatVersion) + ";method=" + method +
+  key.text = "format=" + std::to_string(MatrixCache::kFormatVersion) +
+             ";code=" + formfactor_code_version() + ";method=" + method +
              ";parameters=" + parameters +
              ";precision=" + (precision == Precision::kFloat ? "float" : "double") +
              ";elements=" + std::to_string(mesh.size()) + ";mesh=" + mesh_text;

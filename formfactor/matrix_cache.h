@@ -36,9 +36,14 @@ uint64_t hash_bytes(const void* data, size_t size, uint64_t seed);
 
 struct MatrixCacheKey {
   std::array<uint64_t, 2> hash{};
-  std::string text;  // "format=...;method=...;parameters=...;precision=...;elements=...;mesh=..."
+  std::string
+      text;  // "format=...;code=...;method=...;parameters=...;precision=...;elements=...;mesh=..."
   std::string file_name() const;  // 32 hex digits + ".ffm"
 };
+
+// A hash of the form-factor and scene sources this binary was built from (cmake/SourceHash.cmake);
+// part of every key, so a fix to a method never meets a matrix its old code computed.
+const char* formfactor_code_version();
 
 MatrixCacheKey matrix_cache_key(const Mesh& mesh, const std::string& method,
                                 const std::string& parameters, Precision precision);

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 #include "tests/test_support.h"
 
@@ -45,6 +46,20 @@ TEST(Cli, HelpEverywhere) {
     EXPECT_EQ(r.code, 0) << command << ": " << r.output;
     EXPECT_OUTPUT_HAS(r, "Usage");
   }
+}
+
+TEST(Cli, ReadmeSolverTableIsTheRegistry) {
+  // The README's table is `radlab solvers --markdown`: a solver added, renamed or re-described
+  // without updating the README fails here.
+  Result table = radlab("solvers --markdown");
+  ASSERT_EQ(table.code, 0) << table.output;
+  std::ifstream file(std::string(RADLAB_SOURCE_DIR) + "/README.md");
+  std::ostringstream text;
+  text << file.rdbuf();
+  const std::string readme = text.str();
+  EXPECT_NE(readme.find(table.output), std::string::npos)
+      << "README.md must contain the output of `radlab solvers --markdown`:\n"
+      << table.output;
 }
 
 TEST(Cli, MissingFileIsInvalidInput) {
@@ -103,6 +118,17 @@ TEST(Cli, UnknownNamesAndKeysListTheValidOnes) {
   EXPECT_OUTPUT_HAS(ff_key, "rays");
   Result option = radlab("solve builtin:cube --solver gauss-seidel --no-such-option");
   EXPECT_EQ(option.code, 2);
+}
+
+TEST(Cli, BadBudgetsAreUsageErrorsNamingTheOption) {
+  // A budget that cannot mean anything must not silently fall back to the default.
+  for (const char* budget : {"--steps -3", "--steps 0", "--rows -5", "--seconds -1",
+                             "--seconds nan", "--seconds inf", "--tol -1", "--tol 0", "--tol 2"}) {
+    Result r = radlab(std::string("solve builtin:cube --solver gauss-seidel ") + budget);
+    EXPECT_EQ(r.code, 2) << budget << ": " << r.output;
+    const std::string option = std::string(budget).substr(0, std::string(budget).find(' '));
+    EXPECT_OUTPUT_HAS(r, option);
+  }
 }
 
 TEST(Cli, SceneWithoutEmitter) {
