@@ -31,18 +31,7 @@ const char* kTwoQuads =
     "usemtl white\nf 1 2 3 4\n"
     "usemtl lamp\nf 5/1/1 6//2 7 8\n";
 
-// Expects `fn` to throw E whose message contains every one of `parts`.
-template <class E, class Fn>
-void expect_error(Fn fn, std::initializer_list<std::string> parts) {
-  try {
-    fn();
-    FAIL() << "expected an error";
-  } catch (const E& e) {
-    for (const std::string& part : parts)
-      EXPECT_NE(std::string(e.what()).find(part), std::string::npos)
-          << "message '" << e.what() << "' lacks '" << part << "'";
-  }
-}
+using testing::expect_error;
 
 TEST(ObjReader, ReadsPolygonsAndMaterials) {
   TempDir dir;

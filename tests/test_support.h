@@ -1,7 +1,10 @@
 // Helpers shared by the tests: scenes made of given polygons, temporary folders, tolerances.
 #pragma once
 
+#include <gtest/gtest.h>
+
 #include <filesystem>
+#include <initializer_list>
 #include <string>
 #include <vector>
 
@@ -31,5 +34,18 @@ class TempDir {
  private:
   std::filesystem::path path_;
 };
+
+// Expects `fn` to throw E whose message contains every one of `parts`.
+template <class E, class Fn>
+void expect_error(Fn fn, std::initializer_list<std::string> parts) {
+  try {
+    fn();
+    FAIL() << "expected an error";
+  } catch (const E& e) {
+    for (const std::string& part : parts)
+      EXPECT_NE(std::string(e.what()).find(part), std::string::npos)
+          << "message '" << e.what() << "' lacks '" << part << "'";
+  }
+}
 
 }  // namespace radlab::testing
