@@ -3,6 +3,7 @@
 #include "core/error.h"
 #include "core/log.h"
 #include "core/progress.h"
+#include "experiments/reference_cache.h"
 #include "formfactor/matrix_cache.h"
 
 namespace radlab {
@@ -41,18 +42,18 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
   const size_t n = problem->mesh.size();
   // The dense matrix is built when rows are cached or the reference needs it; a streaming run
   // without a reference never holds n^2 numbers.
+  std::filesystem::path cache_dir;
+  if (spec.use_cache)
+    cache_dir =
+        spec.cache_dir.empty() ? default_cache_dir() : std::filesystem::path(spec.cache_dir);
+  std::optional<MatrixCache> cache;
+  MatrixCacheKey key;
+  if (!cache_dir.empty()) {
+    cache.emplace(cache_dir);
+    key = matrix_cache_key(problem->mesh, problem->method->name(), problem->method->parameters(),
+                           precision);
+  }
   if (spec.row_mode == RowMode::kCached || spec.need_reference) {
-    std::optional<MatrixCache> cache;
-    MatrixCacheKey key;
-    if (spec.use_cache) {
-      const std::filesystem::path dir =
-          spec.cache_dir.empty() ? default_cache_dir() : std::filesystem::path(spec.cache_dir);
-      if (!dir.empty()) {
-        cache.emplace(dir);
-        key = matrix_cache_key(problem->mesh, problem->method->name(),
-                               problem->method->parameters(), precision);
-      }
-    }
     std::optional<FormFactorMatrix> cached =
         cache ? cache->load(key, &problem->build) : std::nullopt;
     if (cached) {
@@ -94,7 +95,17 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
   if (spec.need_reference) {
     Progress progress("reference solution (" + std::to_string(n) + " elements)", "", 0);
     System cached(problem->scene(), problem->mesh, problem->matrix);
-    problem->reference = compute_reference(cached, problem->matrix);
+    std::optional<ReferenceCache> references;
+    ReferenceCacheKey reference_key;
+    if (cache) {
+      references.emplace(cache_dir);
+      reference_key = reference_cache_key(key, symmetrise_ff, cached, {});
+      problem->reference = references->load(reference_key, cached, problem->matrix, {});
+    }
+    if (!problem->reference) {
+      problem->reference = compute_reference(cached, problem->matrix);
+      if (references) references->store(reference_key, *problem->reference);
+    }
     progress.finish();
     log::info("reference: " + problem->reference->summary());
   }

@@ -306,6 +306,7 @@ Reference compute_reference(const System& system, const FormFactorMatrix& F,
                            ": (I - diag(rho)F) is singular or nearly so (spectral radius of "
                            "diag(rho)F close to 1); the scene may absorb no light");
     ref.inverse_norm_bound = std::max(ref.inverse_norm_bound, inverse_norm);
+    ref.channel_inverse_norm.push_back(inverse_norm);
 
     // Solve and refine.
     std::vector<double> x, r;
@@ -346,6 +347,32 @@ Reference compute_reference(const System& system, const FormFactorMatrix& F,
   ref.bound_relative = max_B_all > 0 ? ref.bound_inf / max_B_all : 0.0;
   ref.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return ref;
+}
+
+void recertify_reference(const System& system, const FormFactorMatrix& matrix, Reference& ref,
+                         const ReferenceOptions& options) {
+  const int channels = system.channels();
+  if (ref.B.channels() != channels || ref.B.size() != system.size() ||
+      int(ref.channel_inverse_norm.size()) != channels)
+    throw NumericalError("reference: the stored solution does not fit this system");
+  const std::vector<double> residuals = residual_inf(system, matrix, ref.B);
+  ref.bound_inf = ref.residual_inf = 0.0;
+  double max_B_all = 0.0;
+  for (int c = 0; c < channels; ++c) {
+    double max_B = 0.0;
+    for (double v : ref.B.channel(c)) {
+      if (!std::isfinite(v)) throw NumericalError("reference: stored radiosity is not finite");
+      max_B = std::max(max_B, std::abs(v));
+    }
+    const double bound = residuals[size_t(c)] * ref.channel_inverse_norm[size_t(c)];
+    if (!(bound <= options.acceptable * std::max(max_B, 1e-300)))
+      throw NumericalError("reference: the stored solution's bound " + std::to_string(bound) +
+                           " exceeds " + std::to_string(options.acceptable) + " of max B");
+    ref.bound_inf = std::max(ref.bound_inf, bound);
+    ref.residual_inf = std::max(ref.residual_inf, residuals[size_t(c)]);
+    max_B_all = std::max(max_B_all, max_B);
+  }
+  ref.bound_relative = max_B_all > 0 ? ref.bound_inf / max_B_all : 0.0;
 }
 
 std::string Reference::summary() const {

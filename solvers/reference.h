@@ -42,7 +42,8 @@ struct Reference {
   double bound_relative = 0.0;      // bound_inf / max B
   double residual_inf = 0.0;        // max over channels of ||E - (I-J)B||_inf (with rounding bound)
   double inverse_norm_bound = 0.0;  // certified upper bound on ||(I-J)^-1||_inf (worst channel)
-  double q = 0.0;                   // max_i rho_i sum_j F_ij (worst channel)
+  std::vector<double> channel_inverse_norm;  // the same bound per channel
+  double q = 0.0;                            // max_i rho_i sum_j F_ij (worst channel)
   double spectral_radius_upper = 0.0;  // Collatz–Wielandt upper bound on rho(J) (worst channel)
   std::string method;                  // "dense LU" or "GMRES(30)"
   int refinements = 0;
@@ -53,6 +54,14 @@ struct Reference {
 
 Reference compute_reference(const System& system, const FormFactorMatrix& matrix,
                             const ReferenceOptions& options = {});
+
+// Certifies a stored reference anew against `matrix` (the reference cache): recomputes every
+// channel's residual in long double and the bound residual * channel_inverse_norm (a property of
+// J alone, stored with B under a key naming the matrix, rho and E). Fills residual_inf, bound_inf
+// and bound_relative; throws NumericalError when the bound exceeds options.acceptable of max B,
+// so a stale or damaged B is never used.
+void recertify_reference(const System& system, const FormFactorMatrix& matrix, Reference& ref,
+                         const ReferenceOptions& options = {});
 
 // Collatz–Wielandt bounds on the spectral radius of J = diag(rho) F for one channel after
 // `iterations` steps of power iteration (J is non-negative): lower <= rho(J) <= upper.

@@ -5,8 +5,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 
 #include "core/error.h"
+#include "experiments/problem.h"
 #include "formfactor/raycast.h"
 #include "scene/builtin_scenes.h"
 #include "scene/validate.h"
@@ -159,6 +162,65 @@ TEST(Reference, AnElementWithRhoOneInAClosedSceneIsStillCertified) {
   Reference ref = compute_reference(system, m);
   EXPECT_TRUE(std::isfinite(ref.inverse_norm_bound));
   EXPECT_LE(ref.bound_relative, 1e-12);
+}
+
+}  // namespace
+}  // namespace radlab
+
+namespace radlab {
+namespace {
+
+// The on-disk reference cache: a reference read back is certified anew against the matrix, with
+// the same numbers; a damaged file or a change of material never yields a stale reference.
+TEST(ReferenceCache, ReloadsCertifiedAndRejectsDamageAndStaleness) {
+  testing::TempDir dir;
+  ProblemSpec spec;
+  spec.scene = "builtin:cornell";
+  spec.mesh.subdivisions = 2;
+  spec.cache_dir = dir.path().string();
+  auto first = prepare_problem(spec);
+  ASSERT_TRUE(first->reference);
+  auto second = prepare_problem(spec);
+  ASSERT_TRUE(second->reference);
+  EXPECT_NE(second->reference->method.find("cached"), std::string::npos);
+  EXPECT_EQ(second->reference->bound_inf, first->reference->bound_inf);
+  EXPECT_EQ(second->reference->residual_inf, first->reference->residual_inf);
+  for (int c = 0; c < 3; ++c)
+    for (size_t i = 0; i < first->mesh.size(); ++i)
+      ASSERT_EQ(second->reference->B.at(c, i), first->reference->B.at(c, i));
+
+  // Flip one byte of B in every stored reference: the checksum rejects it, the reference is
+  // recomputed (not "cached") and equal to the first.
+  size_t damaged = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(dir.path())) {
+    if (entry.path().extension() != ".ref") continue;
+    std::fstream f(entry.path(), std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(-20, std::ios::end);
+    f.put('\x5a');
+    ++damaged;
+  }
+  ASSERT_EQ(damaged, 1u);
+  auto third = prepare_problem(spec);
+  EXPECT_EQ(third->reference->method.find("cached"), std::string::npos);
+  EXPECT_EQ(third->reference->B.at(1, 5), first->reference->B.at(1, 5));
+
+  // Another emission: same matrix (cached), new reference.
+  spec.scene = "builtin:cornell:light_scale=0.5";
+  auto other = prepare_problem(spec);
+  EXPECT_TRUE(other->build.cached);
+  EXPECT_EQ(other->reference->method.find("cached"), std::string::npos);
+}
+
+// recertify_reference refuses a solution that is not the system's.
+TEST(ReferenceCache, RecertifyRefusesAWrongSolution) {
+  Built b = build("cube:rho=0.5", 1);
+  System system(b.scene, b.mesh, b.matrix);
+  Reference ref = compute_reference(system, b.matrix);
+  Reference wrong = ref;
+  EXPECT_NO_THROW(recertify_reference(system, b.matrix, wrong));
+  EXPECT_LE(wrong.bound_relative, 1e-12);
+  wrong.B.at(0, 2) *= 1.001;
+  EXPECT_THROW(recertify_reference(system, b.matrix, wrong), NumericalError);
 }
 
 }  // namespace
