@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "core/error.h"
 #include "core/log.h"
 #include "experiments/cli_common.h"
 #include "experiments/merge.h"
@@ -36,9 +37,19 @@ void add_run_command(CLI::App& app, int argc, char** argv) {
     std::tie(options.shard_index, options.shard_count) = parse_shard(o->shard);
     options.command = command_line(argc, argv);
     SweepReport report = run_sweep(spec, options);
-    std::printf("ran %zu of %zu runs; results in %s (trace.csv, summary.csv, runs/%s)\n",
+    std::printf("ran %zu of %zu runs; results in %s (trace.csv, summary.csv, runs/%s%s)\n",
                 report.runs_done, report.runs_total, options.out_dir.c_str(),
-                spec.images.steps.empty() ? "" : ", images/");
+                spec.images.steps.empty() ? "" : ", images/",
+                spec.coverage_steps.empty() ? "" : ", coverage/");
+    if (!report.failures.empty()) {
+      // The others finished and everything is written; the exit code says a run failed
+      // (4 if any failed numerically, else 3 or 2).
+      std::string message = std::to_string(report.failures.size()) + " of " +
+                            std::to_string(report.runs_done) +
+                            " runs failed (stop_reason and error in summary.csv):";
+      for (const RunFailure& f : report.failures) message += "\n  " + f.run_id + ": " + f.message;
+      throw Error(ExitCode(report.exit_code()), message);
+    }
   });
 }
 
@@ -49,7 +60,10 @@ void add_merge_command(CLI::App& app) {
   command->add_option("shards", *dirs, "shard output folders")->required();
   command->add_option("--out", *out, "merged output folder")->required();
   command->callback([dirs, out]() {
-    const size_t runs = merge_sweeps(*dirs, *out);
+    std::string merge_command = "radlab merge";
+    for (const std::string& dir : *dirs) merge_command += " " + dir;
+    merge_command += " --out " + *out;
+    const size_t runs = merge_sweeps(*dirs, *out, merge_command);
     std::printf("merged %zu runs from %zu shards into %s\n", runs, dirs->size(), out->c_str());
   });
 }

@@ -7,41 +7,52 @@
 namespace radlab {
 
 const std::vector<std::string>& summary_columns() {
-  static const std::vector<std::string> columns = {"run_index",
-                                                   "run_id",
-                                                   "scene",
-                                                   "solver",
-                                                   "params",
-                                                   "elements",
-                                                   "channels",
-                                                   "steps",
-                                                   "ff_rows",
-                                                   "seconds",
-                                                   "stop_reason",
-                                                   "rms_rel",
-                                                   "p_mean",
-                                                   "p_max",
-                                                   "rms_rel_display",
-                                                   "p_mean_display",
-                                                   "bound_relative",
-                                                   "rows_to_rms_rel_1e-1",
-                                                   "seconds_to_rms_rel_1e-1",
-                                                   "rows_to_rms_rel_1e-2",
-                                                   "seconds_to_rms_rel_1e-2",
-                                                   "rows_to_rms_rel_1e-3",
-                                                   "seconds_to_rms_rel_1e-3",
-                                                   "rows_to_p_mean_1e-2",
-                                                   "seconds_to_p_mean_1e-2",
-                                                   "fit_points",
-                                                   "fit_rate_per_row",
-                                                   "fit_rate_per_row_sigma",
-                                                   "fit_rows_per_decade",
-                                                   "fit_rows_to_rms_rel_1e-6",
-                                                   "fit_rows_to_rms_rel_1e-6_sigma",
-                                                   "fit_seconds_per_decade",
-                                                   "fit_seconds_to_rms_rel_1e-6",
-                                                   "fit_rate_per_sweep",
-                                                   "spectral_radius"};
+  // Columns are only ever appended (the second group came later), never reordered.
+  // clang-format off
+  static const std::vector<std::string> columns = {
+      "run_index",
+      "run_id",
+      "scene",
+      "solver",
+      "params",
+      "elements",
+      "channels",
+      "steps",
+      "ff_rows",
+      "seconds",
+      "stop_reason",
+      "rms_rel",
+      "p_mean",
+      "p_max",
+      "rms_rel_display",
+      "p_mean_display",
+      "bound_relative",
+      "rows_to_rms_rel_1e-1",
+      "seconds_to_rms_rel_1e-1",
+      "rows_to_rms_rel_1e-2",
+      "seconds_to_rms_rel_1e-2",
+      "rows_to_rms_rel_1e-3",
+      "seconds_to_rms_rel_1e-3",
+      "rows_to_p_mean_1e-2",
+      "seconds_to_p_mean_1e-2",
+      "fit_points",
+      "fit_rate_per_row",
+      "fit_rate_per_row_sigma",
+      "fit_rows_per_decade",
+      "fit_rows_to_rms_rel_1e-6",
+      "fit_rows_to_rms_rel_1e-6_sigma",
+      "fit_seconds_per_decade",
+      "fit_seconds_to_rms_rel_1e-6",
+      "fit_rate_per_sweep",
+      "spectral_radius",
+      "fit_seconds_points",
+      "fit_seconds_per_decade_sigma",
+      "fit_seconds_to_rms_rel_1e-6_sigma",
+      "fit_sweep_points",
+      "fit_rate_per_sweep_sigma",
+      "spectral_radius_lower",
+      "error"};
+  // clang-format on
   return columns;
 }
 
@@ -54,6 +65,9 @@ const std::vector<std::string>& summary_time_columns() {
       "seconds_to_p_mean_1e-2",
       "fit_seconds_per_decade",
       "fit_seconds_to_rms_rel_1e-6",
+      "fit_seconds_points",
+      "fit_seconds_per_decade_sigma",
+      "fit_seconds_to_rms_rel_1e-6_sigma",
       "stop_reason"};  // a time budget makes the stop reason machine-dependent too
   return columns;
 }
@@ -107,8 +121,50 @@ void write_summary_row(CsvWriter& csv, const SummaryInputs& in, const RunResult&
   csv.add(by_rows.valid ? by_rows.x_to_tolerance_sigma : nan);
   csv.add(by_seconds.valid ? -std::log(10.0) / by_seconds.log_rate : nan);
   csv.add(by_seconds.valid ? by_seconds.x_to_tolerance : nan);
-  csv.add(by_rows.valid && in.gathering ? std::exp(by_rows.log_rate * double(in.elements)) : nan);
+  // Per sweep: fitted on the checkpoints at the end of a sweep only (rows a multiple of n), where
+  // a gathering method's iterate is a whole sweep's; mid-sweep errors depend on which elements
+  // the sweep has reached. Needs 3 sweep ends in the tail (the second half of the sweeps).
+  ConvergenceFit by_sweeps;
+  if (in.gathering && in.elements > 0) {
+    std::vector<double> sweeps, sweep_error;
+    for (const CheckpointRecord& c : r.history)
+      if (c.rows > 0 && c.rows % in.elements == 0) {
+        sweeps.push_back(double(c.rows / in.elements));
+        sweep_error.push_back(c.rms_rel);
+      }
+    FitOptions options;
+    options.min_points = 3;
+    by_sweeps = fit_convergence(sweeps, sweep_error, 1e-6, options);
+  }
+  csv.add(by_sweeps.valid ? by_sweeps.rate : nan);
   csv.add(in.spectral_radius);
+  csv.add(by_seconds.points);
+  // per decade = -ln 10 / b, so its sigma is ln 10 sigma_b / b^2.
+  csv.add(by_seconds.valid ? std::log(10.0) * by_seconds.log_rate_sigma /
+                                 (by_seconds.log_rate * by_seconds.log_rate)
+                           : nan);
+  csv.add(by_seconds.valid ? by_seconds.x_to_tolerance_sigma : nan);
+  csv.add(in.gathering ? by_sweeps.points : 0);
+  csv.add(by_sweeps.valid ? by_sweeps.rate * by_sweeps.log_rate_sigma : nan);
+  csv.add(in.spectral_radius_lower);
+  csv.add(std::string());  // error: none
+  csv.end_row();
+}
+
+void write_failed_summary_row(CsvWriter& csv, const SummaryInputs& in,
+                              const std::string& stop_reason, const std::string& error) {
+  const double nan = std::nan("");
+  csv.add(in.run_index).add(in.labels.run_id).add(in.labels.scene).add(in.labels.solver);
+  csv.add(in.labels.params);
+  if (in.elements > 0)
+    csv.add(in.elements).add(in.channels);
+  else
+    csv.add(nan).add(nan);
+  csv.add(nan).add(nan).add(nan);  // steps, ff_rows, seconds: see the trace up to the failure
+  csv.add(stop_reason);
+  // The 11 columns above and `error` below; everything between is empty.
+  for (size_t k = 11; k + 1 < csv.columns().size(); ++k) csv.add(nan);
+  csv.add(error);
   csv.end_row();
 }
 

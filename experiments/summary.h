@@ -3,6 +3,7 @@
 // solvers the fitted per-sweep rate sits beside the spectral radius of diag(rho)F.
 #pragma once
 
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -21,7 +22,9 @@ struct SummaryInputs {
   size_t elements = 0;
   int channels = 1;
   bool gathering = false;        // one step = one gather: a sweep is n steps
-  double spectral_radius = 0.0;  // of diag(rho)F, worst channel (NaN if not estimated)
+  double spectral_radius = 0.0;  // of diag(rho)F, worst channel (NaN if not estimated): the
+                                 // Collatz–Wielandt upper bound, and below the lower bound
+  double spectral_radius_lower = std::nan("");
 };
 
 // The x at which a decreasing trace first reaches `threshold`, interpolated linearly in
@@ -30,5 +33,10 @@ double first_reach(const std::vector<CheckpointRecord>& history, double threshol
                    bool p_mean);
 
 void write_summary_row(CsvWriter& csv, const SummaryInputs& in, const RunResult& result);
+
+// The row of a run that failed: its labels (and elements/channels if the problem was prepared),
+// `stop_reason` (e.g. "failed: numerical error") and the message in `error`; the rest empty.
+void write_failed_summary_row(CsvWriter& csv, const SummaryInputs& in,
+                              const std::string& stop_reason, const std::string& error);
 
 }  // namespace radlab

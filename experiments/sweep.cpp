@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 
 #include "core/error.h"
 #include "core/json.h"
@@ -42,13 +43,121 @@ bool is_gathering(const std::string& solver) {
   return solver == "jacobi" || solver == "gauss-seidel";
 }
 
-double worst_spectral_radius(const Problem& problem) {
-  double worst = 0.0;
-  for (int c = 0; c < problem.system->channels(); ++c)
-    worst = std::max(
-        worst, spectral_radius_bounds(problem.matrix, problem.system->reflectance().channel(c), 200)
-                   .upper);
+// The experiment's schedule plus the image and coverage steps, evenly spaced checkpoints over the
+// second half of a step or row budget (a geometric schedule alone leaves only ~5 checkpoints
+// there, too few for the tail fit), and for gathering solvers the end of every sweep (the fitted
+// per-sweep rate uses those: mid-sweep errors depend on where in the sweep the checkpoint falls).
+CheckpointSchedule run_schedule(const ExperimentSpec& spec, bool gathering, size_t elements) {
+  CheckpointSchedule schedule = spec.schedule;
+  for (long long s : spec.images.steps) schedule.extra.push_back(s);
+  for (long long s : spec.coverage_steps) schedule.extra.push_back(s);
+  // Most solvers read one row per step; for the others these are merely extra checkpoints.
+  const long long limit = spec.budget.steps  ? *spec.budget.steps
+                          : spec.budget.rows ? *spec.budget.rows
+                                             : 0;
+  constexpr int kTailCheckpoints = 16;
+  if (limit >= 2 * kTailCheckpoints)
+    for (int k = 0; k < kTailCheckpoints; ++k)
+      schedule.extra.push_back(limit / 2 + (limit - limit / 2) * k / kTailCheckpoints);
+  if (gathering && elements > 0) {
+    // Without a step or row budget the runner caps a run at 1000 sweeps.
+    const long long sweeps = limit > 0 ? limit / static_cast<long long>(elements) : 1000;
+    for (long long k = 1; k <= std::min<long long>(sweeps, 1000); ++k)
+      schedule.extra.push_back(k * static_cast<long long>(elements));
+  }
+  std::sort(schedule.extra.begin(), schedule.extra.end());
+  schedule.extra.erase(std::unique(schedule.extra.begin(), schedule.extra.end()),
+                       schedule.extra.end());
+  return schedule;
+}
+
+// Collatz–Wielandt bounds on the spectral radius of diag(rho)F, worst channel.
+SpectralRadiusBounds worst_spectral_radius(const Problem& problem) {
+  SpectralRadiusBounds worst;
+  for (int c = 0; c < problem.system->channels(); ++c) {
+    const SpectralRadiusBounds b =
+        spectral_radius_bounds(problem.matrix, problem.system->reflectance().channel(c), 200);
+    worst.lower = std::max(worst.lower, b.lower);
+    worst.upper = std::max(worst.upper, b.upper);
+  }
   return worst;
+}
+
+}  // namespace
+
+int SweepReport::exit_code() const {
+  if (failures.empty()) return 0;
+  int code = 0;
+  for (const RunFailure& f : failures) {
+    if (f.code == ExitCode::kNumerical) return int(ExitCode::kNumerical);
+    code = std::max(code, int(f.code));
+  }
+  return code;
+}
+
+std::string failure_stop_reason(ExitCode code) {
+  switch (code) {
+    case ExitCode::kUsage:
+      return "failed: usage error";
+    case ExitCode::kInvalidInput:
+      return "failed: invalid input";
+    case ExitCode::kNumerical:
+      return "failed: numerical error";
+    default:
+      return "failed";
+  }
+}
+
+namespace {
+
+// What sweep.json says about one problem of this shard (prepared or not).
+struct ProblemEntry {
+  size_t index = 0;
+  const PlannedProblem* planned = nullptr;
+  bool prepared = false;
+  size_t elements = 0, polygons = 0;
+  int channels = 0;
+  std::string ff_parameters;
+  std::string error;
+};
+
+ProblemEntry problem_entry(size_t index, const PlannedProblem& planned, const Problem* problem,
+                           const std::string& error) {
+  ProblemEntry e;
+  e.index = index;
+  e.planned = &planned;
+  e.error = error;
+  if (problem) {
+    e.prepared = true;
+    e.elements = problem->mesh.size();
+    e.polygons = problem->scene().polygons.size();
+    e.channels = problem->system->channels();
+    e.ff_parameters = problem->ff_parameters;
+  }
+  return e;
+}
+
+void write_problem_entry(JsonWriter& json, const ProblemEntry& e) {
+  const ProblemSpec& spec = e.planned->spec;
+  json.begin_object();
+  json.field("index", e.index);
+  json.field("label", e.planned->label);
+  json.field("scene", spec.scene);
+  json.field("subdivisions", spec.mesh.subdivisions);
+  json.field("element_size", spec.mesh.element_size);
+  if (e.prepared) {
+    json.field("polygons", e.polygons);
+    json.field("elements", e.elements);
+    json.field("channels", e.channels);
+  }
+  json.key("form_factors").begin_object();
+  json.field("method", spec.ff_method);
+  json.field("parameters", e.prepared ? e.ff_parameters : text::join(spec.ff_set, ","));
+  json.field("precision", spec.precision == Precision::kFloat ? "float" : "double");
+  json.field("rows", spec.row_mode == RowMode::kCached ? "cached" : "on-the-fly");
+  json.end_object();
+  if (!e.error.empty()) json.field("error", e.error);
+  json.end_object();
 }
 
 }  // namespace
@@ -72,57 +181,127 @@ SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
 
   std::unique_ptr<Problem> problem;
   size_t problem_index = size_t(-1);
-  double spectral_radius = std::nan("");
+  std::string problem_error;  // why the current problem could not be prepared
+  ExitCode problem_code = ExitCode::kOk;
+  SpectralRadiusBounds spectral_radius{std::nan(""), std::nan("")};
   std::unique_ptr<ImageMaker> images;
   std::vector<std::string> run_ids;
+  std::vector<ProblemEntry> problem_entries;  // for sweep.json
 
   for (const PlannedRun& run : plan.runs) {
     if (int(run.index % size_t(options.shard_count)) != options.shard_index) continue;
     if (run.problem != problem_index) {
       problem.reset();
       images.reset();
-      problem = prepare_problem(plan.problems[run.problem].spec);
       problem_index = run.problem;
-      spectral_radius = std::nan("");
-      if (!spec.images.steps.empty()) images = std::make_unique<ImageMaker>(*problem, spec.images);
+      problem_error.clear();
+      problem_code = ExitCode::kOk;
+      spectral_radius = {std::nan(""), std::nan("")};
+      const PlannedProblem& planned = plan.problems[run.problem];
+      try {
+        problem = prepare_problem(planned.spec);
+        if (!spec.images.steps.empty())
+          images = std::make_unique<ImageMaker>(*problem, spec.images);
+      } catch (const Error& e) {
+        problem.reset();
+        images.reset();
+        problem_error = e.what();
+        problem_code = e.code();
+      } catch (const std::bad_alloc&) {
+        problem.reset();
+        images.reset();
+        problem_error = planned.label + ": out of memory (try a coarser mesh)";
+        problem_code = ExitCode::kNumerical;
+      }
+      if (!problem_error.empty())
+        log::info("cannot prepare " + planned.label + ": " + problem_error);
+      problem_entries.push_back(problem_entry(run.problem, planned, problem.get(), problem_error));
     }
-    if (is_gathering(run.solver) && std::isnan(spectral_radius) && problem->has_matrix())
-      spectral_radius = worst_spectral_radius(*problem);
+    log::info("[" + std::to_string(run.index + 1) + "/" + std::to_string(plan.runs.size()) + "] " +
+              run.run_id);
 
     std::vector<std::string> assignments;
     for (const auto& [k, v] : run.parameters) assignments.push_back(k + "=" + v);
-    ParamBag bag = ParamBag::from_assignments(assignments, "solver '" + run.solver + "'");
-    std::unique_ptr<Solver> solver = make_solver(run.solver, bag);
-
-    RunLabels labels{run.run_id, plan.problems[run.problem].spec.scene, run.solver,
-                     bag.canonical()};
-    CheckpointSchedule schedule = spec.schedule;
-    for (long long s : spec.images.steps) schedule.extra.push_back(s);
-    for (long long s : spec.coverage_steps) schedule.extra.push_back(s);
-    const std::string stem = file_stem(run.run_id);
-    auto wanted = [](const std::vector<long long>& steps, long long step) {
-      return std::find(steps.begin(), steps.end(), step) != steps.end();
-    };
-    CheckpointHook hook = [&, stem](long long step, const Solver& s) {
-      if (images && wanted(spec.images.steps, step))
-        images->save(s, step, (out / "images" / stem).string());
-      if (wanted(spec.coverage_steps, step)) {
-        char name[64];
-        std::snprintf(name, sizeof name, "_step%06lld.csv", step);
-        write_coverage_csv((out / "coverage" / (stem + name)).string(), s, *problem, step);
-      }
-    };
-    log::info("[" + std::to_string(run.index + 1) + "/" + std::to_string(plan.runs.size()) + "] " +
-              run.run_id);
-    RunResult result = run_solver(*solver, *problem, spec.budget, schedule, labels, &trace, hook);
-
     SummaryInputs inputs;
     inputs.run_index = run.index;
-    inputs.labels = labels;
-    inputs.elements = problem->mesh.size();
-    inputs.channels = problem->system->channels();
+    inputs.labels = RunLabels{run.run_id, plan.problems[run.problem].spec.scene, run.solver,
+                              text::join(assignments, ",")};
     inputs.gathering = is_gathering(run.solver);
-    inputs.spectral_radius = inputs.gathering ? spectral_radius : std::nan("");
+    inputs.spectral_radius = inputs.spectral_radius_lower = std::nan("");
+    if (problem) {
+      inputs.elements = problem->mesh.size();
+      inputs.channels = problem->system->channels();
+    }
+    const std::string stem = file_stem(run.run_id);
+    run_ids.push_back(run.run_id);
+    ++report.runs_done;
+
+    // Everything from here may fail; a failure is recorded and the sweep goes on.
+    auto record_failure = [&](ExitCode code, const std::string& message,
+                              const std::map<std::string, std::string>* options_given) {
+      log::info(run.run_id + ": failed: " + message);
+      report.failures.push_back({run.index, run.run_id, code, message});
+      write_failed_summary_row(summary, inputs, failure_stop_reason(code), message);
+      summary.flush();
+      trace.flush();
+      JsonWriter json;
+      json.begin_object();
+      json.field("run_id", run.run_id);
+      json.field("run_index", run.index);
+      json.field("experiment", spec.path);
+      write_build_info(json);
+      if (problem) write_problem_info(json, *problem);
+      if (options_given) write_solver_info(json, run.solver, *options_given);
+      json.key("run").begin_object();
+      json.field("budget", spec.budget.describe());
+      json.field("stop_reason", failure_stop_reason(code));
+      json.field("error", message);
+      json.field("exit_code", int(code));
+      json.end_object();
+      json.end_object();
+      json.save((out / "runs" / (stem + ".run.json")).string());
+    };
+    if (!problem) {
+      record_failure(problem_code, problem_error, nullptr);
+      continue;
+    }
+
+    std::optional<ParamBag> bag;
+    std::unique_ptr<Solver> solver;
+    RunResult result;
+    try {
+      bag.emplace(ParamBag::from_assignments(assignments, "solver '" + run.solver + "'"));
+      solver = make_solver(run.solver, *bag);
+      inputs.labels.params = bag->canonical();
+      if (inputs.gathering && problem->has_matrix()) {
+        if (std::isnan(spectral_radius.upper)) spectral_radius = worst_spectral_radius(*problem);
+        inputs.spectral_radius = spectral_radius.upper;
+        inputs.spectral_radius_lower = spectral_radius.lower;
+      }
+      const CheckpointSchedule schedule =
+          run_schedule(spec, inputs.gathering, problem->mesh.size());
+      auto wanted = [](const std::vector<long long>& steps, long long step) {
+        return std::find(steps.begin(), steps.end(), step) != steps.end();
+      };
+      CheckpointHook hook = [&, stem](long long step, const Solver& s) {
+        if (images && wanted(spec.images.steps, step))
+          images->save(s, step, (out / "images" / stem).string());
+        if (wanted(spec.coverage_steps, step)) {
+          char name[64];
+          std::snprintf(name, sizeof name, "_step%06lld.csv", step);
+          write_coverage_csv((out / "coverage" / (stem + name)).string(), s, *problem, step);
+        }
+      };
+      result = run_solver(*solver, *problem, spec.budget, schedule, inputs.labels, &trace, hook);
+    } catch (const Error& e) {
+      record_failure(e.code(), e.what(), bag ? &bag->values() : nullptr);
+      continue;
+    } catch (const std::bad_alloc&) {
+      record_failure(ExitCode::kNumerical, run.run_id + ": out of memory",
+                     bag ? &bag->values() : nullptr);
+      continue;
+    }
+
     write_summary_row(summary, inputs, result);
     summary.flush();
 
@@ -133,16 +312,13 @@ SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
     json.field("experiment", spec.path);
     write_build_info(json);
     write_problem_info(json, *problem);
-    write_solver_info(json, run.solver, bag.values());
+    write_solver_info(json, run.solver, bag->values());
     write_run_result(json, spec.budget, result);
     json.end_object();
     json.save((out / "runs" / (stem + ".run.json")).string());
     write_radiosity_csv((out / "runs" / (stem + ".radiosity.csv")).string(), problem->mesh,
                         solver->solution());
-    run_ids.push_back(run.run_id);
-    ++report.runs_done;
   }
-
   JsonWriter sweep;
   sweep.begin_object();
   sweep.field("experiment", spec.path);
@@ -153,6 +329,19 @@ SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
               std::to_string(options.shard_index) + "/" + std::to_string(options.shard_count));
   sweep.field("runs_total", plan.runs.size());
   sweep.field("runs", run_ids);
+  sweep.key("failed").begin_array();
+  for (const RunFailure& f : report.failures) {
+    sweep.begin_object();
+    sweep.field("run_index", f.run_index);
+    sweep.field("run_id", f.run_id);
+    sweep.field("exit_code", int(f.code));
+    sweep.field("error", f.message);
+    sweep.end_object();
+  }
+  sweep.end_array();
+  sweep.key("problems").begin_array();
+  for (const ProblemEntry& e : problem_entries) write_problem_entry(sweep, e);
+  sweep.end_array();
   write_build_info(sweep);
   sweep.end_object();
   sweep.save((out / "sweep.json").string());

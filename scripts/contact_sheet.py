@@ -6,9 +6,13 @@ Usage: contact_sheet.py OUT_DIR [--kind display|cohen|perror|both] [--out FILE]
 
 Reads OUT_DIR/images/<run>_step<NNNNNN>.png (and _cohen.png / _perror.png) as written by
 `radlab run` with an [images] table, and writes OUT_DIR/plots/contact_sheet.png by default.
+Rows follow the sweep's run order (sweep.json, else summary.csv) and are labelled with the full
+run id, parameters included.
 """
 import argparse
+import csv
 import glob
+import json
 import os
 import re
 import sys
@@ -20,6 +24,40 @@ import matplotlib.image as mpimg  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 
 PATTERN = re.compile(r"^(?P<run>.+)_step(?P<step>\d{6})\.png$")
+
+
+def file_stem(run_id):
+    """The file name radlab gives a run's files (experiments/sweep.cpp: file_stem)."""
+    return re.sub(r"[/: ,=]", "_", run_id)
+
+
+def run_ids_in_order(out_dir):
+    """The sweep's run ids in run order: sweep.json's runs, else summary.csv by run_index."""
+    path = os.path.join(out_dir, "sweep.json")
+    if os.path.exists(path):
+        with open(path) as f:
+            runs = json.load(f).get("runs", [])
+        if runs:
+            return runs
+    path = os.path.join(out_dir, "summary.csv")
+    if os.path.exists(path):
+        with open(path, newline="") as f:
+            rows = sorted(csv.DictReader(f), key=lambda r: int(r["run_index"]))
+        return [r["run_id"] for r in rows]
+    return []
+
+
+def wrapped(run_id, width=28):
+    """The run id over several lines, broken after '/' where it is long."""
+    lines, line = [], ""
+    for part in run_id.split("/"):
+        piece = part if not line else "/" + part
+        if line and len(line) + len(piece) > width:
+            lines.append(line + "/")
+            line = part
+        else:
+            line += piece
+    return "\n".join(lines + [line])
 
 
 def main(argv):
@@ -36,13 +74,20 @@ def main(argv):
             runs.setdefault(match["run"], {})[int(match["step"])] = path[: -len(".png")]
     if not runs:
         sys.exit(f"contact_sheet: no checkpoint images in {images}")
-    steps = sorted({s for by_step in runs.values() for s in by_step})
+    # Sweep order, labelled by run id; image stems no run id explains keep their stem, at the end.
+    ordered = []
+    for run_id in run_ids_in_order(args.out_dir):
+        stem = file_stem(run_id)
+        if stem in runs:
+            ordered.append((run_id, runs.pop(stem)))
+    ordered += sorted(runs.items())
+    steps = sorted({s for _, by_step in ordered for s in by_step})
     kinds = {"display": [""], "cohen": ["_cohen"], "perror": ["_perror"], "both": ["", "_cohen"]}[
         args.kind]
     columns = len(steps) * len(kinds)
-    fig, axes = plt.subplots(len(runs), columns, figsize=(1.9 * columns, 2.0 * len(runs)),
-                             squeeze=False)
-    for r, (run, by_step) in enumerate(runs.items()):
+    fig, axes = plt.subplots(len(ordered), columns,
+                             figsize=(1.9 * columns + 1.2, 2.0 * len(ordered)), squeeze=False)
+    for r, (run, by_step) in enumerate(ordered):
         for s, step in enumerate(steps):
             for k, suffix in enumerate(kinds):
                 ax = axes[r][s * len(kinds) + k]
@@ -54,7 +99,7 @@ def main(argv):
                 if r == 0:
                     ax.set_title(f"step {step}" + (" (error)" if suffix else ""), fontsize=8)
                 if s == 0 and k == 0:
-                    ax.set_ylabel(run.split("_scene_")[0], fontsize=8)
+                    ax.set_ylabel(wrapped(run), fontsize=7)
     fig.tight_layout()
     out = args.out or os.path.join(args.out_dir, "plots", "contact_sheet.png")
     os.makedirs(os.path.dirname(out), exist_ok=True)

@@ -1,7 +1,9 @@
 #!/usr/bin/python3
 """p-error against accumulated shot form factors (Wu & Wang 2002, Figs 2 and 4).
 
-Usage: plot_coverage.py OUT_DIR [--formats png,pdf]
+Usage: plot_coverage.py OUT_DIR [--formats png,pdf] [--out FOLDER]
+
+--out FOLDER writes the figures there instead of OUT_DIR/plots (e.g. docs/figures/NAME).
 
 Reads OUT_DIR/coverage/<run>_step<NNNNNN>.csv (written by `radlab run` with a [coverage] table,
 for solvers that track coverage) and writes OUT_DIR/plots/<run>_coverage.{png,pdf}: one panel per
@@ -11,6 +13,7 @@ dff is not meaningful), as in the paper's gathering criterion.
 """
 import argparse
 import glob
+import json
 import os
 import re
 import sys
@@ -28,6 +31,7 @@ def main(argv):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out_dir")
     parser.add_argument("--formats", default="png,pdf")
+    parser.add_argument("--out", help="folder for the figures (default OUT_DIR/plots)")
     args = parser.parse_args(argv)
     formats = [f for f in args.formats.split(",") if f]
     runs = {}
@@ -37,7 +41,13 @@ def main(argv):
             runs.setdefault(match["run"], []).append((int(match["step"]), path))
     if not runs:
         sys.exit(f"plot_coverage: no coverage files in {args.out_dir}/coverage")
-    os.makedirs(os.path.join(args.out_dir, "plots"), exist_ok=True)
+    plots = args.out or os.path.join(args.out_dir, "plots")
+    os.makedirs(plots, exist_ok=True)
+    run_ids = {}  # file stem -> run id, from sweep.json
+    sweep_path = os.path.join(args.out_dir, "sweep.json")
+    if os.path.exists(sweep_path):
+        with open(sweep_path) as f:
+            run_ids = {re.sub(r"[/: ,=]", "_", r): r for r in json.load(f).get("runs", [])}
     for run, files in runs.items():
         files.sort()
         fig, axes = plt.subplots(1, len(files), figsize=(4.2 * len(files), 3.8), squeeze=False)
@@ -54,9 +64,10 @@ def main(argv):
             session = int(data["session"].iloc[0]) if len(data) else 0
             ax.set_title(f"step {step} (session {session})", fontsize=9)
             ax.legend(fontsize=7, markerscale=6)
-        fig.suptitle(f"{run}: p-error against shot coverage (Wu & Wang Figs 2/4)", fontsize=9)
+        fig.suptitle(f"{run_ids.get(run, run)}: p-error against shot coverage "
+                     "(Wu & Wang Figs 2/4)", fontsize=9)
         fig.tight_layout()
-        stem = os.path.join(args.out_dir, "plots", f"{run}_coverage")
+        stem = os.path.join(plots, f"{run}_coverage")
         for fmt in formats:
             fig.savefig(f"{stem}.{fmt}", dpi=120)
         plt.close(fig)

@@ -1,20 +1,26 @@
 #!/usr/bin/python3
 """Convergence plots from a radlab trace (Debian's python3-matplotlib, numpy, pandas).
 
-Usage: plot_traces.py OUT_DIR [--formats png,pdf]
+Usage: plot_traces.py OUT_DIR [--formats png,pdf] [--out FOLDER]
 
-Reads OUT_DIR/trace.csv (and sweep.json for the title) and writes into OUT_DIR/plots/:
+--out FOLDER writes the figures there instead of OUT_DIR/plots (e.g. docs/figures/NAME).
+
+Reads OUT_DIR/trace.csv, sweep.json (the experiment's name) and runs/*.run.json (each run's
+scene, mesh and form factors) and writes into OUT_DIR/plots/, per scene and mesh:
   <scene>_rms_rel_vs_rows, <scene>_rms_rel_vs_seconds, <scene>_p_mean_vs_rows,
   <scene>_p_mean_vs_seconds   one line per run, log y; solid = solution(), dashed = display()
                               when it differs (e.g. Cohen's ambient term);
   <scene>_p_channels          per-channel p-error panels (Wu & Wang 2002, Figs 1 and 3), RGB scenes.
-Each figure is titled with the scene, the mesh size and the form-factor settings of the runs.
+Each figure is titled with the experiment, the scene, the mesh (elements, subdivision or element
+size) and the form-factor settings (method, parameters, precision, cached or on the fly). When a
+scene appears with several meshes or form-factor settings, <scene> gets a suffix per setting.
 """
 import argparse
 import json
 import os
 import re
 import sys
+import textwrap
 
 import matplotlib
 
@@ -22,6 +28,51 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
+
+
+def file_stem(run_id):
+    """The file name radlab gives a run's files (experiments/sweep.cpp: file_stem)."""
+    return re.sub(r"[/: ,=]", "_", run_id)
+
+
+def problem_of(out_dir, run_id, scene, sweep):
+    """(key, description) of the run's scene, mesh and form factors, from its run.json (or
+    sweep.json's problems when the run.json is missing or has no problem, e.g. a failed run)."""
+    info = None
+    path = os.path.join(out_dir, "runs", file_stem(run_id) + ".run.json")
+    if os.path.exists(path):
+        with open(path) as f:
+            run = json.load(f)
+        if "mesh" in run and "form_factors" in run:
+            ff = run["form_factors"]
+            info = {"scene": run["scene"]["spec"], "elements": run["mesh"]["elements"],
+                    "subdivisions": run["mesh"]["subdivisions"],
+                    "element_size": run["mesh"]["element_size"], "method": ff["method"],
+                    "parameters": ff["parameters"], "precision": ff["precision"],
+                    "rows": ff["rows"]}
+    if info is None:
+        for problem in sweep.get("problems", []):
+            if f"/{problem.get('label')}" in run_id:
+                ff = problem["form_factors"]
+                info = {"scene": problem["scene"], "elements": problem.get("elements"),
+                        "subdivisions": problem["subdivisions"],
+                        "element_size": problem["element_size"], "method": ff["method"],
+                        "parameters": ff["parameters"], "precision": ff["precision"],
+                        "rows": ff["rows"]}
+                break
+    if info is None:
+        return (scene,), scene
+    mesh = (f"element size {info['element_size']:g}" if info["element_size"] else
+            f"subdiv {info['subdivisions']}")
+    elements = f"{info['elements']:,} elements, " if info.get("elements") else ""
+    description = (f"{info['scene']}: {elements}{mesh}\n"
+                   f"form factors {info['method']} ({info['parameters']}), {info['precision']}, "
+                   f"{info['rows']}")
+    key = (info["scene"], info["subdivisions"], info["element_size"], info["method"],
+           info["parameters"], info["precision"], info["rows"])
+    wrapped = "\n".join(textwrap.fill(line, 95, subsequent_indent="    ")
+                         for line in description.split("\n"))
+    return key, wrapped
 
 
 def label_of(run_id, scene_label):
@@ -52,7 +103,7 @@ def plot_metric(runs, metric, x, title, path_stem, formats):
     ax.set_xlabel({"ff_rows": "form-factor rows (hemicubes)", "seconds": "solver seconds"}[x])
     ax.set_ylabel({"rms_rel": "relative RMS error (Cohen eq. 14)",
                    "p_mean": "mean |p-error| (Wu & Wang)"}[metric])
-    ax.set_title(title, fontsize=10)
+    ax.set_title(title, fontsize=8)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7, loc="best")
     fig.tight_layout()
@@ -73,7 +124,7 @@ def plot_channels(runs, title, path_stem, formats):
         ax.grid(True, which="both", alpha=0.3)
     axes[0].set_ylabel("mean |p-error|")
     axes[0].legend(fontsize=7)
-    fig.suptitle(title, fontsize=10)
+    fig.suptitle(title, fontsize=9)
     fig.tight_layout()
     for fmt in formats:
         fig.savefig(f"{path_stem}.{fmt}", dpi=130)
@@ -84,6 +135,7 @@ def main(argv):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out_dir")
     parser.add_argument("--formats", default="png,pdf")
+    parser.add_argument("--out", help="folder for the figures (default OUT_DIR/plots)")
     args = parser.parse_args(argv)
     formats = [f for f in args.formats.split(",") if f]
     trace_path = os.path.join(args.out_dir, "trace.csv")
@@ -93,18 +145,34 @@ def main(argv):
     if trace.empty:
         sys.exit(f"plot_traces: {trace_path}: no rows")
     name = os.path.basename(os.path.normpath(args.out_dir))
+    sweep = {}
     sweep_path = os.path.join(args.out_dir, "sweep.json")
     if os.path.exists(sweep_path):
         with open(sweep_path) as f:
-            name = json.load(f).get("name", name)
-    plots = os.path.join(args.out_dir, "plots")
+            sweep = json.load(f)
+        name = sweep.get("name", name)
+    plots = args.out or os.path.join(args.out_dir, "plots")
     os.makedirs(plots, exist_ok=True)
     written = []
-    for scene, scene_rows in trace.groupby("scene", sort=False):
-        safe = re.sub(r"[^A-Za-z0-9._-]", "_", scene.replace("builtin:", ""))
+    # Group the runs by scene, mesh and form factors (one set of figures each).
+    problems = {}
+    for run_id, scene in trace.groupby("run_id", sort=False)["scene"].first().items():
+        key, description = problem_of(args.out_dir, run_id, scene, sweep)
+        problems.setdefault(key, (description, []))[1].append(run_id)
+    per_scene = {}
+    for key in problems:
+        per_scene.setdefault(key[0], []).append(key)
+    for key, (description, run_ids) in problems.items():
+        scene = key[0]
+        short = (scene[len("builtin:"):] if scene.startswith("builtin:") else
+                 os.path.splitext(os.path.basename(scene))[0])
+        safe = re.sub(r"[^A-Za-z0-9._-]", "_", short)
+        if len(per_scene[scene]) > 1:
+            safe += "_" + str(per_scene[scene].index(key) + 1)
+        scene_rows = trace[trace["run_id"].isin(run_ids)]
         mean = scene_rows[scene_rows["channel"] == "mean"]
         runs = list(mean.groupby("run_id", sort=False))
-        title = f"{name}: {scene}"
+        title = f"{name}: {description}"
         for metric in ["rms_rel", "p_mean"]:
             for x in ["ff_rows", "seconds"]:
                 stem = os.path.join(plots, f"{safe}_{metric}_vs_{'rows' if x == 'ff_rows' else x}")
