@@ -29,17 +29,7 @@ namespace {
 
 using testing::TempDir;
 
-template <class E, class Fn>
-void expect_error(Fn fn, std::initializer_list<std::string> parts) {
-  try {
-    fn();
-    FAIL() << "expected an error";
-  } catch (const E& e) {
-    for (const std::string& part : parts)
-      EXPECT_NE(std::string(e.what()).find(part), std::string::npos)
-          << "message '" << e.what() << "' lacks '" << part << "'";
-  }
-}
+using testing::expect_error;
 
 const char* kTwoRuns = R"(name = "tiny"
 scenes = ["builtin:cube:rho=0.8"]
