@@ -191,30 +191,43 @@ std::vector<double> row_sums(const FormFactorMatrix& F) {
 // Collatz–Wielandt: for non-negative J and x >= 0, x != 0:
 //   min_{x_i>0} (Jx)_i / x_i <= rho(J) <= max_i (Jx)_i / x_i  (the upper bound needs x > 0).
 // Power iteration tightens both. Returns {lower, upper}.
+//
+// An element that sees nothing (a floor element under a box) drops to x_i = 0 after one step,
+// and an upper bound that needs x > 0 would then stay at its first value, q. So the iterate is
+// floored at kFloor (relative to its maximum 1): any positive x gives a valid upper bound. The
+// lower bound uses x' = x with the floored entries set to 0, for which
+// (Jx')_i >= (Jx)_i - kFloor * rho_i * sum_j F_ij, over the entries that are not floored.
 std::pair<double, double> collatz_wielandt(const FormFactorMatrix& F, std::span<const double> rho,
                                            int iterations, bool stop_at_one) {
+  constexpr double kFloor = 1e-12;
   const size_t n = F.size();
+  const std::vector<double> sums = row_sums(F);
   std::vector<double> x(n, 1.0), y(n);
+  std::vector<char> floored(n, 0);
+  bool any_floored = false;
   double lower = 0.0, upper = std::numeric_limits<double>::infinity();
   for (int k = 0; k < iterations; ++k) {
     apply(F, rho, x, y);  // y = x - Jx
     double lo = std::numeric_limits<double>::infinity(), hi = 0.0, scale = 0.0;
-    bool positive = true;
     for (size_t i = 0; i < n; ++i) {
       const double jx = x[i] - y[i];
-      if (x[i] > 0) {
-        lo = std::min(lo, jx / x[i]);
-        hi = std::max(hi, jx / x[i]);
-      } else {
-        positive = false;
+      hi = std::max(hi, jx / x[i]);
+      if (!floored[i]) {
+        const double lost = any_floored ? kFloor * rho[i] * sums[i] : 0.0;
+        lo = std::min(lo, std::max(0.0, jx - lost) / x[i]);
       }
       y[i] = jx;
       scale = std::max(scale, jx);
     }
     lower = std::max(lower, std::isfinite(lo) ? lo : 0.0);
-    if (positive) upper = std::min(upper, hi);
+    upper = std::min(upper, hi);
     if (scale <= 0.0) return {0.0, 0.0};
-    for (size_t i = 0; i < n; ++i) x[i] = y[i] / scale;
+    for (size_t i = 0; i < n; ++i) {
+      x[i] = y[i] / scale;
+      floored[i] = x[i] < kFloor;
+      any_floored = any_floored || floored[i];
+      if (floored[i]) x[i] = kFloor;
+    }
     if (stop_at_one && (lower >= 1.0 || upper < 1.0)) break;
     if (upper - lower <= 1e-9 * upper) break;
   }

@@ -225,3 +225,27 @@ TEST(ReferenceCache, RecertifyRefusesAWrongSolution) {
 
 }  // namespace
 }  // namespace radlab
+
+namespace radlab {
+namespace {
+
+// Collatz–Wielandt bounds bracket the spectral radius and close on it even when an element sees
+// nothing (its row is zero, so power iteration drives its x_i to 0). J = 0.9 F with
+// F = [[0.2, 0.4, 0.4], [0.5, 0.5, 0], [0, 0, 0]]: rho(J) = 0.9 (0.7 + sqrt(0.89)) / 2, while
+// q = max_i rho_i sum_j F_ij = 0.9.
+TEST(SpectralRadius, BoundsCloseOnTheRadiusWithAnElementThatSeesNothing) {
+  FormFactorMatrix F(3, Precision::kDouble);
+  const double values[3][3] = {{0.2, 0.4, 0.4}, {0.5, 0.5, 0.0}, {0.0, 0.0, 0.0}};
+  for (size_t i = 0; i < 3; ++i)
+    for (size_t j = 0; j < 3; ++j) F.set(i, j, values[i][j]);
+  const std::vector<double> rho(3, 0.9);
+  const double exact = 0.9 * (0.7 + std::sqrt(0.89)) / 2.0;
+  const SpectralRadiusBounds bounds = spectral_radius_bounds(F, rho, 200);
+  EXPECT_LE(bounds.lower, exact * (1 + 1e-12));
+  EXPECT_GE(bounds.upper, exact * (1 - 1e-12));
+  EXPECT_NEAR(bounds.upper, exact, 1e-9);
+  EXPECT_NEAR(bounds.lower, exact, 1e-9);
+}
+
+}  // namespace
+}  // namespace radlab
