@@ -1,15 +1,26 @@
 #!/usr/bin/env bash
-# The main job: installs what is missing, builds Release, and runs the default experiment on the
-# built-in Cornell box, writing a trace CSV, the final radiosities, run.json and an image.
+# The main job: installs what is missing, builds Release, and runs the default experiment
+# (experiments/quick.toml: every solver on the built-in Cornell box, about a minute here), then
+# draws its convergence plots and a contact sheet of its images.
 # Usage: scripts/run-main.sh [OUT_DIR]   (default out/main)
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 out="${1:-$root/out/main}"
 "$root/scripts/install-deps.sh"
 "$root/scripts/build.sh" "$root/build"
-mkdir -p "$out"
-"$root/build/experiments/radlab" solve builtin:cornell --subdiv 6 --solver gauss-seidel \
-  --steps 3000 --trace "$out/trace.csv" --out "$out/radiosity.csv" --image "$out/cornell.exr"
-echo
-echo "main job done; results in $out:"
-ls -1 "$out"
+source "$root/scripts/python.sh"   # sets $python: a python3 with matplotlib, numpy and pandas
+
+"$root/build/experiments/radlab" run "$root/experiments/quick.toml" --out "$out"
+"$python" "$root/scripts/plot_traces.py" "$out" --out "$out/plots"
+"$python" "$root/scripts/contact_sheet.py" "$out" --kind both --out "$out/contact_sheet.png"
+
+cat <<TEXT
+
+main job done. In $out:
+  trace.csv            errors of every solver at every checkpoint (columns: docs/outputs.md)
+  summary.csv          one row per solver run: final errors, rows/seconds to 1e-1..1e-3, fitted rates
+  runs/*.radiosity.csv the final radiosities of each run;  runs/*.run.json  how to reproduce it
+  images/              EXR + PNG of the display solution and of its error (Cohen's colours, p-error)
+  plots/               convergence plots (error against form-factor rows and seconds; PNG and PDF)
+  contact_sheet.png    every run's images side by side
+TEXT
