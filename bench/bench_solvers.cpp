@@ -6,16 +6,22 @@
 // are the real ones: the Cornell box (RGB) at --subdiv 19 (7,220 elements) and the cube (grey)
 // at --subdiv 34 (6,936 elements).
 //
-// Baseline: a plain sum over one row that is not in cache (rows visited in a scattered order,
-// the matrix is 200 MB), with enough independent sums to be limited by memory, not by adds.
+// Baselines: a plain sum over one row (16 independent float sums, so memory and not the adds
+// limits it), in the two orders solvers read rows:
+//   - in order: rows i, i+1, i+2, ... (Jacobi, Gauss-Seidel, cyclic shooting, CG's mat-vec). The
+//     hardware prefetcher runs on from one row into the next;
+//   - scattered: rows (7919 k) mod n (sorted shooting, overshooting, interleaving pick rows by
+//     priority or coverage). Each row starts cold: no prefetcher has seen it coming.
 // Every benchmark reports ns per form-factor row and bandwidth_fraction = baseline ns per row /
-// its ns per row (1 = as fast as streaming the row; the target is >= 0.5). Run:
+// its ns per row, against the baseline of the order it really reads rows in (`order`: 0 = in
+// order, 1 = scattered). 1 = as fast as streaming the row; the target is >= 0.5. The matrix
+// (200 MB) is larger than any cache level that one core gets to itself. Run:
 //   build/bench/bench_solvers --benchmark_counters_tabular=true
 // Quote the ratios from one run; absolute times on this machine are noisy.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
-#include <chrono>
+#include <ctime>
 #include <memory>
 
 #include "core/random.h"
@@ -24,6 +30,7 @@
 #include "scene/validate.h"
 #include "solvers/kernels.h"
 #include "solvers/registry.h"
+#include "solvers/shooting_core.h"
 #include "solvers/system.h"
 
 namespace radlab {
@@ -78,115 +85,134 @@ float row_sum(const float* row, size_t n) {
   return t;
 }
 
+enum class Order { kInOrder = 0, kScattered = 1 };
+
+// The time this thread has run, in seconds. Every time below is CPU time, not wall time: on a
+// shared machine another process's time slices would otherwise land on whichever benchmark was
+// running (they doubled some wall times here). Caches and memory stay shared, so quote ratios
+// from one run.
+double cpu_seconds() {
+  timespec t;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
+}
+
 // Scattered rows: a stride co-prime with n, so no row is in cache and the hardware prefetcher
 // cannot run ahead from one row into the next.
 size_t scattered(size_t k, size_t n) {
   return (k * 7919) % n;
 }
+size_t row_index(Order order, size_t k, size_t n) {
+  return order == Order::kInOrder ? k % n : scattered(k, n);
+}
 
-// The best of 7 timings of 4,000 scattered rows each: the machine's streaming rate, not its
-// worst moment.
-double baseline_ns_per_row(const Problem& p) {
+// The best of 7 timings of 4,000 rows each in the given order: the machine's streaming rate,
+// not its worst moment. The row counter carries on across trials, so no trial re-reads the rows
+// of the one before (4,000 rows are 110 MB).
+double baseline_ns_per_row(const Problem& p, Order order) {
   const size_t n = p.matrix.size();
   const size_t rows = 4000;
   double best = 1e300;
   size_t k = 0;
   for (int trial = 0; trial < 7; ++trial) {
     float sink = 0.0f;
-    const auto start = std::chrono::steady_clock::now();
-    for (size_t r = 0; r < rows; ++r) sink += row_sum(p.matrix.row_f32(scattered(k++, n)), n);
-    const double ns =
-        std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - start).count();
+    const double start = cpu_seconds();
+    for (size_t r = 0; r < rows; ++r)
+      sink += row_sum(p.matrix.row_f32(row_index(order, k++, n)), n);
+    const double ns = (cpu_seconds() - start) * 1e9;
     benchmark::DoNotOptimize(sink);
     best = std::min(best, ns / double(rows));
   }
   return best;
 }
 
-// Measured once per problem, in the same run as the benchmarks.
-double baseline(const Problem& p) {
-  static const double grey_ns = baseline_ns_per_row(grey());
-  static const double rgb_ns = baseline_ns_per_row(rgb());
-  return &p == &grey() ? grey_ns : rgb_ns;
+// Measured once per problem and order, in the same run as the benchmarks.
+double baseline(const Problem& p, Order order) {
+  static const double grey_in_order = baseline_ns_per_row(grey(), Order::kInOrder);
+  static const double grey_scattered = baseline_ns_per_row(grey(), Order::kScattered);
+  static const double rgb_in_order = baseline_ns_per_row(rgb(), Order::kInOrder);
+  static const double rgb_scattered = baseline_ns_per_row(rgb(), Order::kScattered);
+  if (&p == &grey()) return order == Order::kInOrder ? grey_in_order : grey_scattered;
+  return order == Order::kInOrder ? rgb_in_order : rgb_scattered;
 }
 
-void report(benchmark::State& state, const Problem& p, uint64_t rows, double seconds) {
+void report(benchmark::State& state, const Problem& p, Order order, uint64_t rows, double seconds) {
   const double ns_per_row = seconds * 1e9 / double(rows);
+  const double base = baseline(p, order);
   state.counters["n"] = double(p.matrix.size());
+  state.counters["order"] = double(order);
   state.counters["ns_per_row"] = ns_per_row;
-  state.counters["baseline_ns_per_row"] = baseline(p);
-  state.counters["bandwidth_fraction"] = baseline(p) / ns_per_row;
+  state.counters["baseline_ns_per_row"] = base;
+  state.counters["bandwidth_fraction"] = base / ns_per_row;
 }
 
-void BM_StreamRow(benchmark::State& state, const Problem* p) {
+void BM_StreamRow(benchmark::State& state, const Problem* p, Order order) {
   const size_t n = p->matrix.size();
   size_t k = 0;
   float sink = 0.0f;
-  const auto start = std::chrono::steady_clock::now();
-  for (auto _ : state) sink += row_sum(p->matrix.row_f32(scattered(k++, n)), n);
-  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double start = cpu_seconds();
+  for (auto _ : state) sink += row_sum(p->matrix.row_f32(row_index(order, k++, n)), n);
+  const double s = cpu_seconds() - start;
   benchmark::DoNotOptimize(sink);
-  report(state, *p, k, s);
+  report(state, *p, order, k, s);
 }
 
 // One solver step per iteration, timed as the runner does (rows from System::with_row).
 void BM_Step(benchmark::State& state, const Problem* p, const char* name,
-             std::vector<std::string> params, bool vector) {
+             std::vector<std::string> params, Order order, bool vector) {
   kernels::use_vector_kernels(vector);
   ParamBag bag = ParamBag::from_assignments(params, name);
   auto solver = make_solver(name, bag);
   solver->init(*p->system);
   p->system->reset_counters();
-  const auto start = std::chrono::steady_clock::now();
+  const double start = cpu_seconds();
   for (auto _ : state) benchmark::DoNotOptimize(solver->step());
-  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  report(state, *p, p->system->rows_used(), s);
+  const double s = cpu_seconds() - start;
+  report(state, *p, order, p->system->rows_used(), s);
   kernels::use_vector_kernels(true);
 }
 
-// The kernels alone on scattered rows (the access pattern of sorted shooting), to separate the
-// cost of the fused selection from the cost of the row order.
+// One shot (ShootingCore::shoot: the kernel over the receivers and the shooter's own books) on
+// scattered rows, the access pattern of sorted shooting, without the solvers' selection logic:
+// to separate the cost of the fused selection from the rest of a step.
 void BM_ShotKernel(benchmark::State& state, const Problem* p, bool select) {
   const System& sys = *p->system;
   const size_t n = sys.size();
-  Radiosity unshot = sys.emission(), weight(sys.channels(), n);
-  kernels::ShotTargets t;
-  t.channels = sys.channels();
-  for (int c = 0; c < sys.channels(); ++c) {
-    for (size_t j = 0; j < n; ++j)
-      weight.at(c, j) = sys.reflectance().at(c, j) * sys.inverse_area()[j];
-    t.unshot[c] = unshot.channel(c).data();
-    t.weight[c] = weight.channel(c).data();
-  }
-  t.area = sys.area().data();
-  const double k[3] = {1e-3, 1e-3, 1e-3};
+  ShootingCore core;
+  core.init(sys);
+  const double s[3] = {1e-3, 1e-3, 1e-3};
   size_t row = 0;
-  const auto start = std::chrono::steady_clock::now();
-  for (auto _ : state)
-    benchmark::DoNotOptimize(
-        kernels::shoot(p->matrix.row_f32(scattered(row++, n)), 0, n, k, 0.0, t, select));
-  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  report(state, *p, row, s);
+  const double start = cpu_seconds();
+  for (auto _ : state) {
+    const size_t i = scattered(row++, n);
+    benchmark::DoNotOptimize(core.shoot(p->matrix.row_f32(i), i, s, select));
+  }
+  const double t = cpu_seconds() - start;
+  report(state, *p, Order::kScattered, row, t);
 }
 
+// The gather kernel on rows in order (as Gauss-Seidel reads them).
 void BM_GatherKernel(benchmark::State& state, const Problem* p) {
   const System& sys = *p->system;
   const size_t n = sys.size();
   double out[3];
   size_t row = 0;
-  const auto start = std::chrono::steady_clock::now();
+  const double start = cpu_seconds();
   for (auto _ : state) {
-    kernels::gather(p->matrix.row_f32(scattered(row++, n)), sys.emission(), out);
+    kernels::gather(p->matrix.row_f32(row++ % n), sys.emission(), out);
     benchmark::DoNotOptimize(out[0]);
   }
-  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  report(state, *p, row, s);
+  const double s = cpu_seconds() - start;
+  report(state, *p, Order::kInOrder, row, s);
 }
 
 void register_all() {
   for (const Problem* p : {&grey(), &rgb()}) {
     const std::string tag = p == &grey() ? "grey" : "rgb";
-    benchmark::RegisterBenchmark(("StreamRow/" + tag).c_str(), BM_StreamRow, p);
+    benchmark::RegisterBenchmark(("StreamRow/" + tag + "/in-order").c_str(), BM_StreamRow, p,
+                                 Order::kInOrder);
+    benchmark::RegisterBenchmark(("StreamRow/" + tag + "/scattered").c_str(), BM_StreamRow, p,
+                                 Order::kScattered);
     benchmark::RegisterBenchmark((tag + "/kernel/Gather").c_str(), BM_GatherKernel, p);
     benchmark::RegisterBenchmark((tag + "/kernel/Shot(no selection)").c_str(), BM_ShotKernel, p,
                                  false);
@@ -196,21 +222,30 @@ void register_all() {
       const char* label;
       const char* solver;
       std::vector<std::string> params;
+      Order order;
       int iterations;
     };
+    const Order in_order = Order::kInOrder, scattered = Order::kScattered;
     const std::vector<Case> cases = {
-        {"Gather(gauss-seidel)", "gauss-seidel", {}, 0},
-        {"Shot(shooting,no selection)", "shooting", {}, 0},
-        {"Shot(sorted-shooting)", "sorted-shooting", {}, 0},
-        {"Shot(overshooting,regather)", "overshooting", {}, 0},
-        {"CGIteration", "conjugate-gradient", {}, 20},
-        {"CGIteration(symmetrise)", "conjugate-gradient", {"symmetrise=true"}, 20},
+        {"Gather(jacobi)", "jacobi", {}, in_order, 0},
+        {"Gather(gauss-seidel)", "gauss-seidel", {}, in_order, 0},
+        {"Shot(shooting,no selection)", "shooting", {}, in_order, 0},
+        {"Shot(sorted-shooting)", "sorted-shooting", {}, scattered, 0},
+        {"Shot(overshooting,regather)", "overshooting", {}, scattered, 0},
+        // Sorted shots that also record the coverage dff (Wu & Wang's Figs. 2 and 4).
+        {"Shot(interleaved,gathers=0)", "interleaved", {"gathers=0"}, scattered, 0},
+        // The default sessions: 400 shots, then 400 gathers at the least-covered elements
+        // (scattered rows too), with the session changes and the pre-receipt corrections.
+        // 8,000 steps: 10 sessions of each kind.
+        {"Step(interleaved)", "interleaved", {}, scattered, 8000},
+        {"CGIteration", "conjugate-gradient", {}, in_order, 20},
+        {"CGIteration(symmetrise)", "conjugate-gradient", {"symmetrise=true"}, in_order, 20},
     };
     for (bool vector : {true, false})
       for (const Case& c : cases) {
         const std::string label = tag + "/" + c.label + (vector ? "" : "/scalar");
-        auto* b =
-            benchmark::RegisterBenchmark(label.c_str(), BM_Step, p, c.solver, c.params, vector);
+        auto* b = benchmark::RegisterBenchmark(label.c_str(), BM_Step, p, c.solver, c.params,
+                                               c.order, vector);
         if (c.iterations) b->Iterations(c.iterations);
         b->Unit(benchmark::kMicrosecond);
       }

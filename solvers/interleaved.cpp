@@ -11,22 +11,32 @@
 // have received but not yet shot; when they shoot it later, r must not receive it again. The
 // paper keeps, per element, its "Gathering No." (the latest session in which it gathered) and
 // its unshot radiosity split by session. radlab keeps the same information as one snapshot per
-// gathering session k, S(k) = B at the start of the session (S_j(k) - x_j is exactly j's unshot
-// radiosity "as of session k" while j has not shot past it), and per element the id k_r of its
-// latest gathering session. With y^r_j = max(x_j, S_j(k_r)) (y^r = x if r never gathered):
+// gathering session k, S(k) = x + max(dB, 0) at the start of the session (S_j(k) - x_j is exactly
+// j's unshot radiosity "as of session k" while j has not shot past it), and per element the id
+// k_r of its latest gathering session. With y^r_j = max(x_j, S_j(k_r)) (y^r = x if r never
+// gathered):
 //
 //   B_r = E_r + rho_r sum_j F_rj y^r_j                                               (*)
 //
 // - a gather at r in session k reads row r and sets B_r = E_r + rho_r sum_j F_rj S_j(k) (all
-//   gathers of a session read the same snapshot, which is >= x and >= every older snapshot, so
-//   y^r becomes S(k)); the increase goes into dB_r (r will shoot it) and into a_r, the advance;
+//   gathers of a session read the same snapshot, which is >= x: no shot happens during a
+//   gathering session, so y^r becomes S(k)); the change goes into dB_r (r will shoot it) and
+//   into a_r, the advance. Without retirement S(k) is also >= every older snapshot and the change
+//   is an increase; after a retirement (below) it can be negative where a source's estimate
+//   dropped, and r then gives back what it had pre-received beyond the new snapshot;
+// - why max(dB, 0): dB_j < 0 only after a retirement handed back an advance that j had already
+//   shot (j then owes; it has nothing unshot to gather). Snapshotting B_j = x_j + dB_j < x_j
+//   would make a gather un-receive x_j - B_j that j's shots had already delivered, energy that no
+//   later shot of j would bring back (tests/solver_test.cpp's brute-force model caught this
+//   with max_sessions=2);
 // - a shot of s from i moves y^r_i from max(x_i, S_i) to max(x_i + s, S_i). The shot delivers s
 //   to every receiver in one streaming pass as in plain shooting, then subtracts, for the members
 //   of each live session whose snapshot of i is above x_i, the part they had already gathered
 //   (no work when i has shot past every live snapshot, the common case).
 // So each element's unshot radiosity reaches each receiver exactly once, early (gathered) or
-// when shot. With reciprocal form factors (*) holds exactly, B <= B* and B never decreases (from
-// B = E, E >= 0). For any F the bookkeeping keeps, exactly up to rounding,
+// when shot. With reciprocal form factors (*) holds exactly and B <= B*; until a session is
+// retired B never decreases (from B = E, E >= 0). For any F the bookkeeping keeps, exactly up to
+// rounding,
 //
 //   dB - a = E + J' x - x  (the residual of x = B - dB),  a = outstanding advances >= 0,
 //
@@ -154,25 +164,26 @@ void InterleavedSolver::shoot_step() {
   const double Ai = core_.system().area()[i];
   core_.system().with_row(i, [&](const auto* F) {
     best_ = core_.shoot(F, i, s, true, dff_.data());
+    // One pass over the members: correct each (an element is a member of one session only, so
+    // its value is then final) and see whether it now leads (only if a correction was negative).
+    const size_t leader = best_.index;
     bool rescan = false;
+    kernels::Argmax lead = best_;
     for (const Excess& ex : excess)
       for (size_t r : ex.session->members) {
+        const double g = double(F[r]) * core_.system().inverse_area()[r];
         for (int c = 0; c < channels; ++c) {
-          const double undelivered = (double(F[r]) * (Ai * ex.e[c])) * core_.weight().at(c, r);
+          // The kernels' arithmetic (kernels.h): (F_ir / A_r) (A_i e_c rho_cr).
+          const double undelivered = g * ((Ai * ex.e[c]) * core_.system().reflectance().at(c, r));
           core_.add_unshot(c, r, -undelivered);
           advance_.at(c, r) -= undelivered;
         }
-        rescan |= r == best_.index;
+        rescan |= r == leader;
+        const double p = core_.priority(r);
+        if (p > lead.value || (p == lead.value && r < lead.index)) lead = {p, r};
       }
-    if (rescan) {  // the maximum itself was corrected
-      best_ = core_.max_priority();
-    } else {  // a corrected element may now lead (only if a correction was negative)
-      for (const Excess& ex : excess)
-        for (size_t r : ex.session->members) {
-          const double p = core_.priority(r);
-          if (p > best_.value || (p == best_.value && r < best_.index)) best_ = {p, r};
-        }
-    }
+    // If the maximum itself was corrected, any element may lead now.
+    best_ = rescan ? core_.max_priority() : lead;
   });
   shot_in_session_[i] = 1;
   last_action_ = {false, i};
@@ -224,7 +235,13 @@ void InterleavedSolver::start_gathering() {
   while (sessions_.size() >= size_t(options_.max_sessions)) release(0);
   auto session = std::make_unique<Session>();
   session->id = next_session_id_++;
-  session->snapshot = core_.solution();
+  // S = x + max(dB, 0) (see the doc block): = B except where a retirement left dB < 0.
+  session->snapshot = core_.shot();
+  {
+    const auto S = session->snapshot.raw();
+    const auto dB = core_.unshot().raw();
+    for (size_t k = 0; k < S.size(); ++k) S[k] += std::max(dB[k], 0.0);
+  }
   sessions_.push_back(std::move(session));
   gather_queue_ = std::move(candidates);
   gather_next_ = 0;

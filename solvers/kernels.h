@@ -28,14 +28,26 @@ void gather_scatter(const float* F, const Radiosity& x, double* out, Radiosity& 
 void gather_scatter(const double* F, const Radiosity& x, double* out, Radiosity& z,
                     const double* a);
 
+// A run of consecutive elements with the same reflectance (elements follow input polygon order,
+// and a polygon has one material, so a scene has few runs).
+struct ReflectanceRun {
+  size_t end = 0;                   // one past the run's last element
+  double rho[3] = {0.0, 0.0, 0.0};  // the reflectance of every element of the run, per channel
+};
+
 // The receivers of one shot (all arrays have one entry per element).
 struct ShotTargets {
   int channels = 1;
-  double* unshot[3] = {nullptr, nullptr, nullptr};        // dB_c, updated
-  const double* weight[3] = {nullptr, nullptr, nullptr};  // rho_c[j] / A[j]
-  const double* area = nullptr;                           // A[j], for the priority
-  double* coverage = nullptr;                             // Wu & Wang's dff (optional)
-  const double* inverse_area = nullptr;                   // 1 / A[j], with coverage
+  double* unshot[3] = {nullptr, nullptr, nullptr};             // dB_c, updated
+  const double* reflectance[3] = {nullptr, nullptr, nullptr};  // rho_c[j] (read without runs)
+  const double* inverse_area = nullptr;                        // 1 / A[j]
+  const double* area = nullptr;                                // A[j], for the priority
+  double* coverage = nullptr;                                  // Wu & Wang's dff (optional)
+  // Optional runs of equal reflectance covering every element, in order. With runs, k_c * rho_c
+  // is formed once per run instead of once per receiver and channel, and the reflectance arrays
+  // are not read; the results are the same bits either way.
+  const ReflectanceRun* runs = nullptr;
+  size_t run_count = 0;
 };
 
 inline constexpr size_t kNone = std::numeric_limits<size_t>::max();
@@ -46,12 +58,14 @@ struct Argmax {
   size_t index = kNone;
 };
 
-// For every j in [lo, hi): dB_c[j] += (F[j] * k[c]) * weight_c[j], i.e. the shot delivers
-// rho_j F_ij (A_i / A_j) s_c when k[c] = A_i s_c. With coverage set, also
-// coverage[j] += (F[j] * coverage_scale) * inverse_area[j] (F_ji = F_ij A_i / A_j for
-// coverage_scale = A_i). With select, returns the largest priority among the updated elements
-// (fused into the same pass: a shot changes every receiver's priority, so any heap or tree would
-// pay at least this much to learn the new maximum).
+// For every j in [lo, hi): dB_c[j] += (F[j] * inverse_area[j]) * (k[c] * rho_c[j]), i.e. the shot
+// delivers rho_j F_ij (A_i / A_j) s_c when k[c] = A_i s_c. (This association needs one multiply
+// per receiver for F_ij / A_j and one per channel, against three per channel for
+// (F k) (rho / A): the RGB shot was limited by its multiplies as much as by its bytes.) With
+// coverage set, also coverage[j] += (F[j] * inverse_area[j]) * coverage_scale (F_ji =
+// F_ij A_i / A_j for coverage_scale = A_i). With select, returns the largest priority among the
+// updated elements (fused into the same pass: a shot changes every receiver's priority, so any heap
+// or tree would pay at least this much to learn the new maximum).
 Argmax shoot(const float* F, size_t lo, size_t hi, const double* k, double coverage_scale,
              const ShotTargets& targets, bool select);
 Argmax shoot(const double* F, size_t lo, size_t hi, const double* k, double coverage_scale,

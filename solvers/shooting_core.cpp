@@ -1,6 +1,7 @@
 #include "solvers/shooting_core.h"
 
 #include <cmath>
+#include <cstring>
 
 namespace radlab {
 
@@ -10,10 +11,26 @@ void ShootingCore::init(const System& system) {
   const int channels = system.channels();
   x_ = Radiosity(channels, n);
   dB_ = system.emission();
-  weight_ = Radiosity(channels, n);
-  for (int c = 0; c < channels; ++c)
-    for (size_t j = 0; j < n; ++j)
-      weight_.at(c, j) = system.reflectance().at(c, j) * system.inverse_area()[j];
+  // Runs of bitwise-equal reflectance (so that k * rho per run is the per-element product), used
+  // when they are long enough on average for the vector loop to run within them.
+  runs_.clear();
+  const Radiosity& rho = system.reflectance();
+  for (size_t j = 0; j < n; ++j) {
+    bool same = !runs_.empty();
+    for (int c = 0; c < channels && same; ++c) {
+      const double value = rho.at(c, j);
+      same = std::memcmp(&runs_.back().rho[c], &value, sizeof(double)) == 0;
+    }
+    if (same) {
+      runs_.back().end = j + 1;
+      continue;
+    }
+    kernels::ReflectanceRun run;
+    run.end = j + 1;
+    for (int c = 0; c < channels; ++c) run.rho[c] = rho.at(c, j);
+    runs_.push_back(run);
+  }
+  if (runs_.size() * kMinimumRun > n) runs_.clear();
   dirty_ = true;
 }
 
@@ -24,10 +41,14 @@ kernels::ShotTargets ShootingCore::targets() const {
   auto& self = const_cast<ShootingCore&>(*this);
   for (int c = 0; c < channels(); ++c) {
     t.unshot[c] = self.dB_.channel(c).data();
-    t.weight[c] = weight_.channel(c).data();
+    t.reflectance[c] = system_->reflectance().channel(c).data();
   }
   t.area = system_->area().data();
   t.inverse_area = system_->inverse_area().data();
+  if (!runs_.empty()) {
+    t.runs = runs_.data();
+    t.run_count = runs_.size();
+  }
   return t;
 }
 
@@ -42,11 +63,12 @@ kernels::Argmax ShootingCore::shoot(const T* F, size_t i, const double* s, bool 
   t.coverage = coverage;
   const kernels::Argmax before = kernels::shoot(F, 0, i, k, Ai, t, select);
   const kernels::Argmax after = kernels::shoot(F, i + 1, n, k, Ai, t, select);
-  // The shooter: its self term (zero for planar elements), then its own books.
-  const double f = double(F[i]);
+  // The shooter: its self term (zero for planar elements; the kernels' arithmetic), then its own
+  // books.
+  const double g = double(F[i]) * system_->inverse_area()[i];
   for (int c = 0; c < channels(); ++c) {
     double& u = dB_.at(c, i);
-    u += (f * k[c]) * weight_.at(c, i);
+    u += g * (k[c] * system_->reflectance().at(c, i));
     u -= s[c];
     x_.at(c, i) += s[c];
   }

@@ -63,16 +63,19 @@ class ShootingCore {
 
   const Radiosity& unshot() const { return dB_; }
   const Radiosity& shot() const { return x_; }
-  // rho_cj / A_j.
-  const Radiosity& weight() const { return weight_; }
   // B = x + dB.
   const Radiosity& solution() const;
 
  private:
   kernels::ShotTargets targets() const;
 
+  // Runs shorter than this on average are not worth a vector loop each: the kernels then read
+  // the reflectance per element instead.
+  static constexpr size_t kMinimumRun = 32;
+
   const System* system_ = nullptr;
-  Radiosity x_, dB_, weight_;
+  Radiosity x_, dB_;
+  std::vector<kernels::ReflectanceRun> runs_;  // equal reflectance (empty: per element)
   mutable Radiosity B_;
   mutable bool dirty_ = true;
 };

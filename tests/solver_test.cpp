@@ -18,8 +18,11 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <map>
 
 #include "core/error.h"
+#include "core/random.h"
+#include "formfactor/exact.h"
 #include "formfactor/raycast.h"
 #include "metrics/error_metrics.h"
 #include "scene/builtin_scenes.h"
@@ -207,6 +210,103 @@ TEST_P(EverySolver, VectorAndScalarKernelsAgreeBitForBit) {
     ASSERT_EQ(with_vector.raw()[k], with_scalar.raw()[k]) << GetParam() << " at " << k;
 }
 
+// The shot kernel on its own, against its definition (kernels.h):
+//   dB_cj += (F_j * (1/A_j)) * (k_c * rho_cj),  coverage_j += (F_j * (1/A_j)) * coverage_scale,
+// and the lowest index of the largest A_j sum_c |dB_cj| afterwards. Every combination (channels,
+// float or double rows, selection, coverage, reflectance runs or per element, scalar or vector)
+// must give the same bits as that formula evaluated here. n = 301 and ranges starting at odd
+// offsets exercise the alignment peel, partial blocks and tails; runs of lengths 1 to 97 the
+// run boundaries inside blocks. Negative unshot values check the |dB| in the priority.
+TEST(ShotKernel, EveryPathComputesTheDefinitionBitForBit) {
+  const size_t n = 301;
+  Pcg32 rng(5);
+  std::vector<float> Ff(n);
+  std::vector<double> Fd(n), area(n), inverse_area(n), rho(3 * n), dB0(3 * n), cov0(n);
+  std::vector<kernels::ReflectanceRun> runs;
+  for (size_t j = 0; j < n;) {  // runs of random length with random reflectance
+    kernels::ReflectanceRun run;
+    run.end = std::min(n, j + 1 + size_t(rng.next_double() * 97));
+    for (int c = 0; c < 3; ++c) run.rho[c] = rng.next_double();
+    for (; j < run.end; ++j)
+      for (int c = 0; c < 3; ++c) rho[size_t(c) * n + j] = run.rho[c];
+    runs.push_back(run);
+  }
+  for (size_t j = 0; j < n; ++j) {
+    Ff[j] = float(rng.next_double() * 1e-2);
+    Fd[j] = rng.next_double() * 1e-2;
+    area[j] = 0.01 + rng.next_double();
+    inverse_area[j] = 1.0 / area[j];
+    cov0[j] = rng.next_double();
+    for (int c = 0; c < 3; ++c) dB0[size_t(c) * n + j] = rng.next_double() - 0.2;
+  }
+  const double k[3] = {0.7, -0.3, 1.9}, coverage_scale = 0.37;
+  const std::vector<std::pair<size_t, size_t>> ranges = {
+      {0, n}, {3, n}, {1, 70}, {5, 6}, {77, 300}};
+  const bool have_vector = kernels::use_vector_kernels(true);
+  int cases = 0;
+  for (int C : {1, 3})
+    for (bool use_float : {true, false})
+      for (bool select : {true, false})
+        for (bool coverage : {true, false})
+          for (bool with_runs : {true, false})
+            for (bool vector : {false, true}) {
+              if (vector && !have_vector) continue;
+              for (const auto& [lo, hi] : ranges) {
+                std::vector<double> dB = dB0, cov = cov0;
+                kernels::ShotTargets t;
+                t.channels = C;
+                for (int c = 0; c < C; ++c) {
+                  t.unshot[c] = dB.data() + size_t(c) * n;
+                  t.reflectance[c] = rho.data() + size_t(c) * n;
+                }
+                t.inverse_area = inverse_area.data();
+                t.area = area.data();
+                if (coverage) t.coverage = cov.data();
+                if (with_runs) {
+                  t.runs = runs.data();
+                  t.run_count = runs.size();
+                }
+                kernels::use_vector_kernels(vector);
+                const kernels::Argmax got =
+                    use_float ? kernels::shoot(Ff.data(), lo, hi, k, coverage_scale, t, select)
+                              : kernels::shoot(Fd.data(), lo, hi, k, coverage_scale, t, select);
+                kernels::use_vector_kernels(true);
+                std::vector<double> want = dB0, want_cov = cov0;
+                kernels::Argmax best;
+                for (size_t j = lo; j < hi; ++j) {
+                  const double g = (use_float ? double(Ff[j]) : Fd[j]) * inverse_area[j];
+                  double p = 0.0;
+                  for (int c = 0; c < C; ++c) {
+                    double& u = want[size_t(c) * n + j];
+                    // volatile: each product rounded, never fused into a multiply-add.
+                    const volatile double delivered = g * (k[c] * rho[size_t(c) * n + j]);
+                    u += delivered;
+                    p += std::abs(u);
+                  }
+                  p *= area[j];
+                  if (p > best.value) best = {p, j};
+                  const volatile double covered = g * coverage_scale;
+                  want_cov[j] += covered;
+                }
+                const std::string what =
+                    "C=" + std::to_string(C) + (use_float ? " float" : " double") +
+                    (select ? " select" : "") + (coverage ? " coverage" : "") +
+                    (with_runs ? " runs" : "") + (vector ? " vector" : " scalar") + " [" +
+                    std::to_string(lo) + "," + std::to_string(hi) + ")";
+                for (size_t e = 0; e < size_t(C) * n; ++e)
+                  ASSERT_EQ(dB[e], want[e]) << what << " " << e;
+                for (size_t j = 0; j < n; ++j)
+                  ASSERT_EQ(cov[j], coverage ? want_cov[j] : cov0[j]) << what << " " << j;
+                if (select) {
+                  EXPECT_EQ(got.index, best.index) << what;
+                  EXPECT_EQ(got.value, best.value) << what;
+                }
+                ++cases;
+              }
+            }
+  EXPECT_GE(cases, 5 * 32);
+}
+
 TEST_P(EverySolver, RowsOnTheFlyAreCountedAndConverge) {
   // --ff-mode on-the-fly: rows come from the method in double, one with_row call each, and the
   // System counts every one. Tolerance 1e-5: the reference is of the float matrix (rows differ
@@ -382,6 +482,128 @@ TEST(Gathering, MonotoneFromBelowAndGaussSeidelAheadOfJacobi) {
     last_g = G;
   }
 }
+
+// ---------------------------------------------------------------------------------------------
+// The furnace against its analytic answer.
+//
+// Every face of a closed box emits e and reflects rho: B = e / (1 - rho) on every element when the
+// rows of F sum to 1, whatever the mesh. The test compares the gathering solvers with that value,
+// not with the reference, on cubic and non-cubic boxes, coarse and fine meshes, rho up to 0.99.
+//
+// Form factors: `exact` (adaptive quadrature, 1e-9 relative per pair) in double, so the rows sum to
+// 1 within delta = max_i |sum_j F_ij - 1| (~1e-12 to 4e-11 here), measured in long double and
+// used in the bound (and required to be <= 1e-9, or the bound would say little). With q = rho (1 +
+// delta)
+// (>= the inf-norm of J = rho F), the tolerance on |B_i - e/(1-rho)| after k sweeps is the sum of
+//   - discretisation: the solution B_d of the discrete system has residual rho e (s_i - 1)/(1-rho)
+//     at the analytic value, so |B_d - B*| <= rho delta B* / (1 - q);
+//   - iteration: Jacobi's and Gauss-Seidel's errors both contract by q per sweep in the inf-norm
+//     (every update is rho sum_j F_ij e_j, F_ii = 0, with old or new e_j), and the start B = E is
+//     at most ||B_d|| <= e / (1 - q) away: q^k e / (1 - q);
+//   - rounding: each gather of n positive terms is within (n + 3) u of exact (u = 2^-53), an
+//     error the later sweeps contract like any other: (n + 3) u (e / (1 - q)) / (1 - q).
+// The number of sweeps is chosen from the same rate so that the iteration term is 1e-10 of B*
+// (2,300 sweeps at rho = 0.99); the total tolerance is then ~1.1e-10 of B*, the row-sum term
+// adding rho delta / (1 - q) <= 4e-9 at rho = 0.99. The bound is sharp: on the cube with one
+// element per face every row sums to 1 - 2.6e-11, the discrete solution lies that much (times
+// rho / (1 - q)) below e/(1-rho), and Jacobi at rho = 0.99 ends at 0.9996 of the tolerance; leave
+// out the row-sum term and the test fails, as it does if the expected value is off by 1e-8.
+struct FurnaceBound {
+  double analytic, discretisation, rounding, q, e;
+  double iteration(long long sweeps) const { return std::pow(q, double(sweeps)) * e / (1 - q); }
+};
+
+// One exact matrix per box and mesh (F does not depend on rho), shared by both solvers' runs.
+// Quadrature tolerance 1e-9: the rows then sum to 1 within ~1e-11 (measured), and building the
+// subdiv-3 meshes takes seconds rather than minutes (the non-cubic box at 1e-10: ~2.5 minutes).
+struct FurnaceMatrix {
+  FormFactorMatrix F;
+  double delta = 0.0;  // max_i |sum_j F_ij - 1|, summed in long double
+};
+
+const FurnaceMatrix& furnace_matrix(const std::string& box, int subdiv) {
+  static std::map<std::pair<std::string, int>, FurnaceMatrix> cache;
+  auto [it, fresh] = cache.try_emplace({box, subdiv});
+  if (fresh) {
+    Scene geometry = make_builtin_scene(box + "rho=0.5");
+    validate_scene(geometry);
+    const Mesh mesh = build_mesh(geometry, {subdiv, 0.0});
+    ExactOptions options;
+    options.tolerance = 1e-9;
+    ExactFormFactors ff(geometry, mesh, options);
+    BuildReport report;
+    it->second.F = build_matrix(ff, mesh.size(), Precision::kDouble, report);
+    long double delta = 0.0L;
+    for (size_t i = 0; i < mesh.size(); ++i) {
+      long double row = 0.0L;
+      for (size_t j = 0; j < mesh.size(); ++j) row += it->second.F.at(i, j);
+      delta = std::max(delta, std::abs(row - 1.0L));
+    }
+    it->second.delta = delta;
+  }
+  return it->second;
+}
+
+class Furnace : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(Furnace, GatheringReachesEOverOneMinusRho) {
+  const bool jacobi = GetParam() == "jacobi";
+  const double u = std::ldexp(1.0, -53);
+  const double e = 1.5;
+  for (const std::string box : {"furnace:", "furnace:lx=1.5,ly=1,lz=0.75,"}) {
+    for (int subdiv : {1, 3}) {
+      const FurnaceMatrix& matrix = furnace_matrix(box, subdiv);
+      const FormFactorMatrix& F = matrix.F;
+      const size_t n = F.size();
+      const double delta = matrix.delta;
+      for (size_t i = 0; i < n; ++i) ASSERT_EQ(F.at(i, i), 0.0);
+      ASSERT_LE(delta, 1e-9) << box << " subdiv " << subdiv;
+      for (double rho : {0.3, 0.9, 0.99}) {
+        const std::string spec =
+            box + "rho=" + std::to_string(rho) + ",emission=" + std::to_string(e);
+        Scene scene = make_builtin_scene(spec);
+        validate_scene(scene);
+        const Mesh scene_mesh = build_mesh(scene, {subdiv, 0.0});
+        ASSERT_EQ(scene_mesh.size(), n);
+        System sys(scene, scene_mesh, F);
+        ASSERT_EQ(sys.channels(), 1);
+        FurnaceBound b;
+        b.e = e;
+        b.analytic = e / (1 - rho);
+        b.q = rho * (1 + delta);
+        b.discretisation = rho * delta * b.analytic / (1 - b.q);
+        b.rounding = double(n + 3) * u * (e / (1 - b.q)) / (1 - b.q);
+        const long long sweeps = static_cast<long long>(
+            std::ceil(std::log(1e-10 * b.analytic * (1 - b.q) / e) / std::log(b.q)));
+        auto solver = make(GetParam());
+        solver->init(sys);
+        for (long long k = 1; k <= sweeps; ++k) {
+          for (size_t step = 0; step < n; ++step) solver->step();
+          const Radiosity& B = solver->solution();
+          // The a-priori rate, after every sweep: |B_k - B*| <= iteration(k) + the rest.
+          const double tolerance = b.iteration(k) + b.discretisation + b.rounding;
+          // Jacobi from the uniform E stays uniform: sweep k is the partial geometric series
+          // e (1 - rho^(k+1)) / (1 - rho), up to the row-sum defect, which moves the m-th term by
+          // at most m delta q^(m-1) rho e: in all rho e delta / (1 - q)^2.
+          const double partial = e * (1 - std::pow(rho, double(k + 1))) / (1 - rho);
+          const double series_tolerance = rho * e * delta / ((1 - b.q) * (1 - b.q)) + b.rounding;
+          for (size_t i = 0; i < n; ++i) {
+            ASSERT_LE(std::abs(B.at(0, i) - b.analytic), tolerance)
+                << GetParam() << " " << spec << " subdiv " << subdiv << " sweep " << k
+                << " element " << i;
+            if (jacobi) {
+              ASSERT_LE(std::abs(B.at(0, i) - partial), series_tolerance)
+                  << spec << " subdiv " << subdiv << " sweep " << k << " element " << i;
+            }
+          }
+        }
+      }
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Gathering, Furnace, ::testing::Values("jacobi", "gauss-seidel"),
+                         test_name);
 
 // ---------------------------------------------------------------------------------------------
 // Shooting bookkeeping (DESIGN §2).
@@ -626,74 +848,169 @@ TEST(Interleaved, NoEnergyCountedTwiceAgainstABruteForceModel) {
   // Exact reciprocity (double, symmetrised) is needed for the two to coincide: the gather reads
   // F_rj, the shots deliver F_jr A_j / A_r. Tolerance 1e-11 of the largest radiosity: both
   // compute the same quantities in double with different association over <= 400 steps.
+  //
+  // Session retirement is modelled too, independently of the solver's data structures: the model
+  // keeps its own list of gathering sessions (snapshot, members = elements whose latest gather
+  // was in it). When a gathering session starts it drops (1) every session whose snapshot x has
+  // reached everywhere (all its pre-receipts delivered), then (2) the oldest sessions while
+  // max_sessions are live; dropping hands back each member's outstanding pre-receipts
+  // (dB_r -= rho_r sum_j F'_rj P[r][j], P[r][*] = 0), so the energy arrives later by shooting.
+  // A session also ends when all its members have gathered again later. With max_sessions = 1000
+  // no session is ever retired for the cap; with 2 and 1 the cap retires sessions that still
+  // hold pre-receipts, and the solver must hand back exactly what the model does.
   auto s = setup("cornell", 2, Precision::kDouble, /*symmetrised=*/true);
   const System& sys = *s->system;
   const size_t n = s->n();
   const int C = s->channels();
-  auto solver = make("interleaved", {"shots=10", "gathers=8", "max_sessions=1000"});
-  const auto& il = dynamic_cast<const InterleavedSolver&>(*solver);
-  solver->init(sys);
-
-  Radiosity dB = sys.emission(), x(C, n), snapshot;
-  std::vector<double> P(size_t(C) * n * n, 0.0);
-  auto pre = [&](int c, size_t r, size_t j) -> double& { return P[(size_t(c) * n + r) * n + j]; };
   auto Fp = [&](size_t j, size_t i) {  // F'_ji as shots apply it
     return s->matrix.at(i, j) * sys.area()[i] / sys.area()[j];
   };
-  bool previous_was_gather = false;
-  int gathers = 0, paid_down = 0;
-  double scale = max_abs(sys.emission());
-  for (int step = 1; step <= 400; ++step) {
-    const Radiosity advance_before = il.advance();
-    solver->step();
-    const auto action = il.last_action();
-    if (action.gather) {
-      ++gathers;
-      const size_t r = action.element;
-      if (!previous_was_gather) {  // a gathering session starts: snapshot of B = x + dB
-        snapshot = x;
-        for (size_t k = 0; k < x.raw().size(); ++k) snapshot.raw()[k] += dB.raw()[k];
-      }
-      for (int c = 0; c < C; ++c)
-        for (size_t j = 0; j < n; ++j) {
-          const double outstanding = std::max(snapshot.at(c, j) - x.at(c, j), 0.0);
-          const double take = outstanding - pre(c, r, j);
-          pre(c, r, j) = outstanding;
-          dB.at(c, r) += sys.reflectance().at(c, r) * s->matrix.at(r, j) * take;
-        }
-    } else {
-      const size_t i = action.element;
-      for (int c = 0; c < C; ++c) {
-        const double shot = dB.at(c, i);
-        ASSERT_GE(shot, 0.0);
-        for (size_t j = 0; j < n; ++j) {
-          const double excluded = std::min(shot, pre(c, j, i));
-          pre(c, j, i) -= excluded;
-          dB.at(c, j) += sys.reflectance().at(c, j) * Fp(j, i) * (shot - excluded);
-        }
-        dB.at(c, i) -= shot;
-        x.at(c, i) += shot;
-      }
-      paid_down += max_abs(minus(il.advance(), advance_before)) > 0;
-    }
-    previous_was_gather = action.gather;
+  for (const long long max_sessions : {1000LL, 2LL, 1LL}) {
+    SCOPED_TRACE("max_sessions=" + std::to_string(max_sessions));
+    auto solver = make("interleaved",
+                       {"shots=10", "gathers=8", "max_sessions=" + std::to_string(max_sessions)});
+    const auto& il = dynamic_cast<const InterleavedSolver&>(*solver);
+    solver->init(sys);
 
-    Radiosity B = x;
-    for (size_t k = 0; k < B.raw().size(); ++k) B.raw()[k] += dB.raw()[k];
-    scale = std::max(scale, max_abs(B));
-    ASSERT_LE(max_abs(minus(solver->solution(), B)), 1e-11 * scale) << "step " << step;
-    ASSERT_LE(max_abs(minus(*solver->unshot(), dB)), 1e-11 * scale) << "step " << step;
-    // The advance is the reflected part of everything received early and not yet shot.
-    for (int c = 0; c < C; ++c)
-      for (size_t r = 0; r < n; ++r) {
-        double a = 0.0;
-        for (size_t j = 0; j < n; ++j) a += Fp(r, j) * pre(c, r, j);
-        a *= sys.reflectance().at(c, r);
-        ASSERT_NEAR(il.advance().at(c, r), a, 1e-11 * scale) << "step " << step;
+    Radiosity dB = sys.emission(), x(C, n);
+    std::vector<double> P(size_t(C) * n * n, 0.0);
+    auto pre = [&](int c, size_t r, size_t j) -> double& { return P[(size_t(c) * n + r) * n + j]; };
+    struct ModelSession {
+      long long id;
+      Radiosity snapshot;
+      std::vector<size_t> members;
+    };
+    std::vector<ModelSession> sessions;    // oldest first
+    std::vector<long long> latest(n, -1);  // id of r's latest live gathering session
+    long long next_id = 0;
+    int capped = 0, capped_with_outstanding = 0, delivered_sessions = 0, emptied_sessions = 0;
+    // Drops session q, handing back its members' outstanding pre-receipts; returns whether any
+    // was outstanding.
+    auto retire = [&](size_t q) {
+      bool outstanding = false;
+      for (size_t r : sessions[q].members) {
+        for (int c = 0; c < C; ++c) {
+          double a = 0.0;
+          for (size_t j = 0; j < n; ++j) {
+            a += Fp(r, j) * pre(c, r, j);
+            pre(c, r, j) = 0.0;
+          }
+          a *= sys.reflectance().at(c, r);
+          dB.at(c, r) -= a;
+          outstanding |= a > 0.0;
+        }
+        latest[r] = -1;
       }
+      sessions.erase(sessions.begin() + std::ptrdiff_t(q));
+      return outstanding;
+    };
+
+    // The model's own schedule: after every 10th shot of a shooting session a gathering session
+    // of 8 gathers starts (the Cornell box has far more than 8 candidates).
+    auto start_gathering = [&] {
+      for (size_t q = sessions.size(); q-- > 0;) {
+        bool passed = true;
+        for (size_t k = 0; k < x.raw().size() && passed; ++k)
+          passed = x.raw()[k] >= sessions[q].snapshot.raw()[k];
+        if (passed) {
+          retire(q);
+          ++delivered_sessions;
+        }
+      }
+      while (sessions.size() >= size_t(max_sessions)) {
+        ++capped;
+        capped_with_outstanding += retire(0);
+      }
+      ModelSession session{next_id++, x, {}};  // snapshot of B = x + dB, after the hand-backs
+      for (size_t k = 0; k < x.raw().size(); ++k) session.snapshot.raw()[k] += dB.raw()[k];
+      sessions.push_back(std::move(session));
+    };
+    int shots_in_session = 0, gathers_left = 0;
+    int gathers = 0, paid_down = 0;
+    double scale = max_abs(sys.emission());
+    for (int step = 1; step <= 400; ++step) {
+      const Radiosity advance_before = il.advance();
+      solver->step();
+      const auto action = il.last_action();
+      ASSERT_EQ(action.gather, gathers_left > 0) << "step " << step;
+      if (action.gather) {
+        ++gathers;
+        --gathers_left;
+        const size_t r = action.element;
+        ModelSession& current = sessions.back();
+        for (int c = 0; c < C; ++c)
+          for (size_t j = 0; j < n; ++j) {
+            const double outstanding = std::max(current.snapshot.at(c, j) - x.at(c, j), 0.0);
+            const double take = outstanding - pre(c, r, j);
+            pre(c, r, j) = outstanding;
+            dB.at(c, r) += sys.reflectance().at(c, r) * s->matrix.at(r, j) * take;
+          }
+        if (latest[r] != current.id) {
+          for (size_t q = 0; q + 1 < sessions.size(); ++q) {
+            auto& members = sessions[q].members;
+            const auto it = std::find(members.begin(), members.end(), r);
+            if (it == members.end()) continue;
+            members.erase(it);
+            if (members.empty()) {
+              sessions.erase(sessions.begin() + std::ptrdiff_t(q));
+              ++emptied_sessions;
+            }
+            break;
+          }
+          sessions.back().members.push_back(r);
+          latest[r] = sessions.back().id;
+        }
+      } else {
+        const size_t i = action.element;
+        for (int c = 0; c < C; ++c) {
+          const double shot = dB.at(c, i);
+          ASSERT_GE(shot, 0.0) << "step " << step;
+          for (size_t j = 0; j < n; ++j) {
+            const double excluded = std::min(shot, pre(c, j, i));
+            pre(c, j, i) -= excluded;
+            dB.at(c, j) += sys.reflectance().at(c, j) * Fp(j, i) * (shot - excluded);
+          }
+          dB.at(c, i) -= shot;
+          x.at(c, i) += shot;
+        }
+        paid_down += max_abs(minus(il.advance(), advance_before)) > 0;
+        if (++shots_in_session == 10) {
+          shots_in_session = 0;
+          gathers_left = 8;
+          start_gathering();
+        }
+      }
+
+      ASSERT_EQ(il.live_sessions(), sessions.size()) << "step " << step;
+      ASSERT_LE(il.live_sessions(), size_t(max_sessions)) << "step " << step;
+      Radiosity B = x;
+      for (size_t k = 0; k < B.raw().size(); ++k) B.raw()[k] += dB.raw()[k];
+      scale = std::max(scale, max_abs(B));
+      ASSERT_LE(max_abs(minus(solver->solution(), B)), 1e-11 * scale) << "step " << step;
+      ASSERT_LE(max_abs(minus(*solver->unshot(), dB)), 1e-11 * scale) << "step " << step;
+      // The advance is the reflected part of everything received early and not yet shot.
+      for (int c = 0; c < C; ++c)
+        for (size_t r = 0; r < n; ++r) {
+          double a = 0.0;
+          for (size_t j = 0; j < n; ++j) a += Fp(r, j) * pre(c, r, j);
+          a *= sys.reflectance().at(c, r);
+          ASSERT_NEAR(il.advance().at(c, r), a, 1e-11 * scale) << "step " << step;
+        }
+    }
+    EXPECT_GT(gathers, 100);
+    EXPECT_GT(paid_down, 10) << "shots should have delivered less to elements that gathered";
+    // Which ways sessions ended (22 gathering sessions in 400 steps). Without a cap: some sessions
+    // emptied by regathers (11 here) and some delivered (1); with max_sessions 2 or 1 the cap
+    // retires 20 or 21, each still owed energy when retired.
+    if (max_sessions >= 1000) {
+      EXPECT_EQ(capped, 0);
+      EXPECT_GT(emptied_sessions, 0) << delivered_sessions << " delivered";
+    } else {
+      EXPECT_GT(capped_with_outstanding, 10)
+          << capped << " retired by the cap, " << delivered_sessions << " delivered, "
+          << emptied_sessions << " emptied";
+    }
   }
-  EXPECT_GT(gathers, 100);
-  EXPECT_GT(paid_down, 10) << "shots should have delivered less to elements that gathered";
 }
 
 TEST(Interleaved, UnshotMinusAdvanceIsTheResidualForAnyFormFactors) {
