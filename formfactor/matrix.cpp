@@ -91,12 +91,14 @@ FormFactorMatrix build_matrix(const FormFactorMethod& method, size_t n, Precisio
 
 void symmetrise(FormFactorMatrix& m, std::span<const double> area) {
   const size_t n = m.size();
-  for (size_t i = 0; i < n; ++i)
+  tbb::parallel_for(size_t(0), n, [&](size_t i) {
     for (size_t j = i + 1; j < n; ++j) {
-      const double g = 0.5 * (area[i] * m.at(i, j) + area[j] * m.at(j, i));
+      const double ai = area[i], aj = area[j];
+      const double g = ai * aj * (aj * m.at(i, j) + ai * m.at(j, i)) / (ai * ai + aj * aj);
       m.set(i, j, g / area[i]);
       m.set(j, i, g / area[j]);
     }
+  });
 }
 
 }  // namespace radlab
