@@ -15,6 +15,9 @@
 // - one hemicube row at R = 150 (target <= 2 ms on one core; Cohen 1988: 10 s on an HP 825);
 // - one raycast row at the default settings.
 //
+// Shaft culling's decisions alone, on both scenes: ns per facing pair with the polygon-pair tier
+// and with the element-level test alone.
+//
 // Run: build/bench/bench_formfactors --benchmark_counters_tabular=true
 // Quote ratios measured in one run; absolute times on this machine are noisy.
 #include <benchmark/benchmark.h>
@@ -28,6 +31,8 @@
 #include "formfactor/matrix.h"
 #include "formfactor/raycast.h"
 #include "formfactor/sampling.h"
+#include "formfactor/shaft.h"
+#include "formfactor/visibility.h"
 #include "scene/builtin_scenes.h"
 #include "scene/validate.h"
 
@@ -217,6 +222,48 @@ BENCHMARK(BM_RaycastVsRawPacketRatio)
     ->Arg(0)
     ->Unit(benchmark::kMillisecond)
     ->MinTime(3.0);
+
+// Shaft culling's decisions alone (shaft.h), on the facing pairs of 64 rows spread over the mesh:
+// argument 1 the default two tiers (polygon-pair candidates, then the element-level test on them),
+// 0 the element-level test alone over the whole polygon hierarchy. The per-thread cache of
+// polygon pairs is warm after the first rows, as it is while a thread computes many rows.
+// Reports pairs/s, ns/pair (CPU time) and the share of pairs proven clear.
+void shaft_decisions(benchmark::State& state, const Scene& scene, const Mesh& mesh) {
+  const double eps = plane_epsilon(mesh);
+  const ShaftCuller shafts(scene, mesh, eps);
+  const bool tiers = state.range(0) != 0;
+  std::vector<std::pair<uint32_t, std::vector<uint32_t>>> rows(64);
+  for (size_t r = 0; r < rows.size(); ++r) {
+    const size_t i = (r * 7919) % mesh.size();
+    rows[r].first = uint32_t(i);
+    for (size_t j = 0; j < mesh.size(); ++j)
+      if (j != i && pair_faces(mesh, i, j, eps)) rows[r].second.push_back(uint32_t(j));
+  }
+  size_t pairs = 0, clear = 0, r = 0;
+  const timespec cpu_start = thread_now();
+  for (auto _ : state) {
+    const auto& [i, js] = rows[r++ % rows.size()];
+    for (uint32_t j : js)
+      clear += (tiers ? shafts.first_blocker(i, j) : shafts.element_level_blocker(i, j)) < 0;
+    pairs += js.size();
+  }
+  state.counters["pairs/s"] = benchmark::Counter(double(pairs), benchmark::Counter::kIsRate);
+  state.counters["ns/pair"] = 1e9 * thread_seconds(cpu_start) / double(pairs);
+  state.counters["clear %"] = 100.0 * double(clear) / double(pairs);
+  state.counters["polygons"] = double(shafts.polygon_count());
+}
+
+void BM_ShaftDecisionsCornell5k(benchmark::State& state) {
+  const Cornell& c = cornell();
+  shaft_decisions(state, c.scene, c.mesh);
+}
+BENCHMARK(BM_ShaftDecisionsCornell5k)->ArgName("tiers")->Arg(1)->Arg(0);
+
+void BM_ShaftDecisionsOffice7k(benchmark::State& state) {
+  const Office& o = office();
+  shaft_decisions(state, o.scene, o.mesh);
+}
+BENCHMARK(BM_ShaftDecisionsOffice7k)->ArgName("tiers")->Arg(1)->Arg(0);
 
 // Rows of one method on the office (one thread), spread over the mesh; reports the CPU time of
 // one row (ms/row; the wall time is longer when other processes share the core).
