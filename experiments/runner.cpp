@@ -147,6 +147,13 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
                      TraceWriter* trace, const CheckpointHook& hook) {
   const System& system = *problem.system;
   Budget budget = budget_in;
+  // Callers validate with the user's words (file:line, option name); this is the last guard
+  // against a budget that can never be reached, which would run forever.
+  if ((budget.steps && *budget.steps < 1) || (budget.rows && *budget.rows < 1) ||
+      (budget.seconds && !(*budget.seconds > 0 && std::isfinite(*budget.seconds))) ||
+      (budget.tol && !(*budget.tol > 0 && *budget.tol < 1)))
+    throw UsageError(
+        "run budget: steps and rows must be >= 1, seconds finite and > 0, tol in (0,1)");
   if (budget.tol && !problem.reference)
     throw UsageError("--tol needs the reference (it bounds the error with its certificate)");
   // Never run unbounded: a tolerance alone is capped at 1000 sweeps' worth of rows, and

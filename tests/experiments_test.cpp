@@ -97,6 +97,19 @@ TEST(ExperimentSpec, ErrorsNameFileAndLine) {
       {"e.toml:2", "nosuch", "gauss-seidel"});
   expect_error<InputError>([&] { read_experiment(dir.file("missing.toml")); },
                            {"missing.toml", "no such file"});
+  // Budgets that cannot mean anything (a NaN time limit used to run forever).
+  for (const char* budget :
+       {"steps = -3", "rows = 0", "seconds = -1.0", "seconds = nan", "tol = 2.0", "tol = 0.0"}) {
+    const std::string key = std::string(budget).substr(0, std::string(budget).find(' '));
+    expect_error<InputError>(
+        [&] {
+          read_experiment(dir.write("f.toml",
+                                    "scenes = [\"builtin:cube\"]\nsolvers = "
+                                    "[\"jacobi\"]\n[budget]\n" +
+                                        std::string(budget) + "\n"));
+        },
+        {"f.toml:4", "budget." + key});
+  }
 }
 
 // Everything but the columns that measure time.
