@@ -105,11 +105,12 @@ double ExactFormFactors::pair(size_t i, size_t j, RowCost& cost) const {
   const double kept = clip_to_front(from, mesh_.centroid[j], mesh_.normal[j], plane_epsilon_);
   if (kept <= 0.0) return 0.0;
   long long evaluations = 0;
-  // Absolute floor 1e-16 of F (per unit area, shrinking 4x per level): only cells whose whole
-  // contribution is below double rounding stop on it.
-  const double f = kept * polygon_form_factor_adaptive({from, mesh_.normal[i]},
-                                                       {to, mesh_.normal[j]}, options_.tolerance,
-                                                       1e-16, options_.max_depth, &evaluations);
+  // Absolute floor 1e-16 of F_ij (per unit area, shrinking 4x per level; divided by `kept`
+  // because the integral over the kept part is scaled by it): only cells whose whole contribution
+  // is below double rounding stop on it.
+  const double f = kept * polygon_form_factor_adaptive(
+                              {from, mesh_.normal[i]}, {to, mesh_.normal[j]}, options_.tolerance,
+                              1e-16 / kept, options_.max_depth, &evaluations);
   cost.kernel_evaluations += uint64_t(evaluations);
   if (f <= 0.0) return 0.0;
   if (visibility_) return f * visibility_->fraction(i, j, cost);

@@ -4,10 +4,11 @@
 //   F_ij = (1/A_i) * integral over x in element i of F_{dx -> j} dA_x
 //
 // with Lambert's exact point-to-polygon formula (point_polygon.h) as the integrand and adaptive
-// subdivision of element i (polygon_integral.h: 4 children, 3x3 Gauss rules, until parent and
-// children agree to `tolerance` relative on every cell). The integrand is analytic for separated
-// pairs and has an integrable log-singular derivative along an edge two elements share; both
-// converge (tests/formfactor_test.cpp: parallel and perpendicular unit squares within 1e-8).
+// subdivision of the part of element i in front of j's plane (polygon_integral.h: 4 children,
+// 3x3 Gauss rules, the worst cell first, until the estimated error of the whole pair is within
+// `tolerance` relative). The integrand is analytic for separated pairs and has an integrable
+// log-singular derivative along an edge two elements share; both converge
+// (tests/formfactor_test.cpp: parallel and perpendicular unit squares within 1e-8).
 //
 // Visibility. The formula knows nothing of occluders, so the method is valid only when no pair
 // can be occluded: the scene is a convex enclosure, or shaft culling (shaft.h) proves every
@@ -20,7 +21,7 @@
 // Left out: pairs facing away or coplanar (no work, pairs_culled); visibility rays wherever
 // nothing can occlude (pairs_unoccluded).
 //
-// Parameters: tolerance (relative, per pair and per cell, 1e-10), max_depth (subdivision levels,
+// Parameters: tolerance (relative, per pair, 1e-10), max_depth (subdivision levels,
 // 16), visibility (refuse | rays, refuse), rays (per pair that may be blocked, 64; only with
 // visibility=rays), seed (0; only with visibility=rays).
 #pragma once

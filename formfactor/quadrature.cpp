@@ -83,17 +83,24 @@ void element_quadrature(std::span<const Vec3> c, int order, std::vector<Quadratu
         Vec3 ds = (1 - t) * (c[1] - c[0]) + t * (c[2] - c[3]);
         Vec3 dt = (1 - s) * (c[3] - c[0]) + s * (c[2] - c[1]);
         double jacobian = glm::length(glm::cross(ds, dt));
-        out.push_back({x, 2.0 * jacobian / area2 * rule.weights[a] * rule.weights[b]});
+        // A degenerate quad (zero area) has no area to share out: plain tensor weights, so the
+        // weights still sum to 1 and stay finite.
+        const double share = area2 > 0.0 ? 2.0 * jacobian / area2 : 1.0;
+        out.push_back({x, share * rule.weights[a] * rule.weights[b]});
       }
     return;
   }
-  // Triangles and fans: split the weight by each triangle's share of the area.
+  // Triangles and fans: split the weight by each triangle's share of the area; zero-area fan
+  // triangles (a clipped polygon's collinear corners) get no points. A polygon of zero area has no
+  // share to split: its first triangle takes all the weight, so the weights sum to 1 and stay
+  // finite.
   double total = 0.0;
   for (size_t k = 1; k + 1 < c.size(); ++k)
     total += 0.5 * glm::length(glm::cross(c[k] - c[0], c[k + 1] - c[0]));
   for (size_t k = 1; k + 1 < c.size(); ++k) {
-    double a = 0.5 * glm::length(glm::cross(c[k] - c[0], c[k + 1] - c[0]));
-    triangle_rule(c[0], c[k], c[k + 1], a / total, rule, out);
+    const double a = 0.5 * glm::length(glm::cross(c[k] - c[0], c[k + 1] - c[0]));
+    const double share = total > 0.0 ? a / total : (k == 1 ? 1.0 : 0.0);
+    if (share > 0.0) triangle_rule(c[0], c[k], c[k + 1], share, rule, out);
   }
 }
 

@@ -18,7 +18,9 @@ struct QuadraturePoint {
 // Gauss–Legendre nodes and weights on [0,1] for `order` points (1..32).
 void gauss_legendre_unit(int order, std::vector<double>& nodes, std::vector<double>& weights);
 
-// An order x order rule over a triangle, quad, or convex n-gon (a fan of triangles).
+// An order x order rule over a triangle, quad, or convex n-gon (a fan of triangles). Fan
+// triangles of zero area get no points; a polygon of zero area still gets finite weights that
+// sum to 1 (its integral, area times mean, is 0 whatever they are).
 void element_quadrature(std::span<const Vec3> corners, int order,
                         std::vector<QuadraturePoint>& out);
 

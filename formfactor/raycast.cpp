@@ -6,6 +6,7 @@
 
 #include "core/error.h"
 #include "formfactor/polygon_integral.h"
+#include "scene/geometry.h"
 
 namespace radlab {
 
@@ -68,14 +69,31 @@ double RaycastFormFactors::unoccluded(size_t i, size_t j, RowCost& cost) const {
   const PolygonRef a{from, mesh_.normal[i]};
   const PolygonRef b{to, mesh_.normal[j]};
   const double gap = glm::distance(mesh_.centroid[i], mesh_.centroid[j]) - radius_[i] - radius_[j];
-  const int order = order_rule_.order(gap, 2.0 * radius_[i]);
+  const double diameter = 2.0 * radius_[i];
+  // The integrand vanishes on j's plane, roughly in proportion to the height h(x) of x above it,
+  // so a pair that nearly grazes j's plane (a kept sliver ending on it, near-coplanar elements)
+  // has a mean far below the integrand's size on the Bernstein ellipse: the error bound's
+  // constant is about max|h| on the ellipse over the mean of h. h is linear, so its mean over
+  // the kept part is its value at the kept part's centroid, and on the ellipse it grows by at
+  // most |grad h| = sin(angle between the planes) per unit of the element's diameter.
+  double height_max = 0.0;
+  for (const Vec3& v : from)
+    height_max = std::max(height_max, glm::dot(v - mesh_.centroid[j], mesh_.normal[j]));
+  const Vec3 centre = kept < 1.0 ? geometry::centroid(from) : mesh_.centroid[i];
+  const double height_mean = glm::dot(centre - mesh_.centroid[j], mesh_.normal[j]);
+  const double slope = glm::length(glm::cross(mesh_.normal[i], mesh_.normal[j]));
+  const double scale = height_mean / (height_max + slope * diameter);
+  const int order = order_rule_.order(gap, diameter, scale);
   if (order > 0) {
     cost.kernel_evaluations +=
         uint64_t(order * order * (from.size() == 4 ? 1 : int(from.size()) - 2));
     return kept * polygon_form_factor_fixed(a, b, order);
   }
   long long evaluations = 0;
-  double f = polygon_form_factor_adaptive(a, b, options_.tolerance, 1e-14, 10, &evaluations);
+  // The floor is 1e-14 of F_ij, the result after scaling by `kept`: a sliver of i kept in front
+  // of j's plane (a corner touching it) then stops at once instead of refining cells whose whole
+  // contribution is below 1e-14.
+  double f = polygon_form_factor_adaptive(a, b, options_.tolerance, 1e-14 / kept, 10, &evaluations);
   cost.kernel_evaluations += uint64_t(evaluations);
   return kept * f;
 }

@@ -3,15 +3,23 @@
 //   F_ij = F^u_ij * V_ij
 //
 // F^u_ij, the unoccluded form factor, integrates Lambert's exact point-to-polygon formula over
-// element i: a Gauss rule whose order follows from the pair's separation (Bernstein bound,
-// polygon_integral.h), or adaptive subdivision for near and touching pairs. V_ij, the visibility
-// fraction, is the share of `rays` Embree occlusion rays between stratified, jittered points on
-// i and on j that arrive unblocked. The points depend only on (seed, min(i,j), max(i,j)), so
-// V_ij = V_ji and reciprocity is kept up to the quadrature of F^u.
+// the part of element i in front of j's plane (clip_to_front; the formula itself clips j to i's
+// tangent plane): a Gauss rule whose order follows from the pair's separation and from how
+// nearly the kept part grazes j's plane (Bernstein bound, polygon_integral.h), or the adaptive
+// rule for near and touching pairs. V_ij, the visibility fraction, is the share of `rays` Embree
+// occlusion rays that arrive unblocked between stratified, jittered points on those same two
+// parts (i in front of j's plane, j in front of i's): rays from a part the integral leaves out
+// would be blocked by the very polygon that cuts it off. The points depend only on
+// (seed, min(i,j), max(i,j)), so V_ij = V_ji and reciprocity is kept up to the quadrature of F^u.
 //
 // Left out, and counted: pairs facing away or coplanar (no work, pairs_culled); visibility rays
 // everywhere when the scene is a convex enclosure, and for every pair whose shaft holds no
 // polygon that could block it (shaft.h; pairs_unoccluded).
+//
+// V's error is not controlled by `tolerance`: sampling noise (~1/sqrt(rays) per partly occluded
+// pair), and a bias where visibility correlates with the kernel (every ray counts the same,
+// whatever its cos cos / r^2), so a row of an open scene can exceed 1 by more than the quadrature
+// tolerance (builtin:cornell --subdiv 6: 1.0034 at most).
 //
 // Parameters: tolerance (relative quadrature error per pair, 1e-4), rays (per occludable pair,
 // 16), seed (0), max_order (largest fixed Gauss rule before going adaptive, 8), shafts (shaft

@@ -6,6 +6,7 @@
 
 #include "core/random.h"
 #include "formfactor/occlusion.h"
+#include "formfactor/polygon_integral.h"
 #include "formfactor/sampling.h"
 
 namespace radlab {
@@ -21,10 +22,10 @@ double plane_epsilon(const Mesh& mesh) {
 
 Visibility::Visibility(const Scene& scene, const Mesh& mesh, int rays, uint64_t seed,
                        bool shaft_culling)
-    : mesh_(mesh), rays_(rays), seed_(seed) {
+    : mesh_(mesh), rays_(rays), seed_(seed), plane_epsilon_(plane_epsilon(mesh)) {
   convex_enclosure_ = is_convex_enclosure(scene);
   if (convex_enclosure_) return;
-  if (shaft_culling) shafts_ = std::make_unique<ShaftCuller>(scene, mesh, plane_epsilon(mesh));
+  if (shaft_culling) shafts_ = std::make_unique<ShaftCuller>(scene, mesh, plane_epsilon_);
   embree_ = std::make_unique<EmbreeScene>(mesh);
 }
 
@@ -63,11 +64,20 @@ double Visibility::trace(size_t i, size_t j, RowCost& cost) const {
   // Symmetric in i and j: the same points, the same rays, whichever row asks.
   const size_t lo = std::min(i, j), hi = std::max(i, j);
   Pcg32 rng(hash_combine(hash_combine(seed_, lo), hi));
-  thread_local std::vector<Vec3> corners, p, q;
-  mesh_.corners(lo, corners);
-  stratified_points(corners, rays_, rng, p);
-  mesh_.corners(hi, corners);
-  stratified_points(corners, rays_, rng, q);
+  // Sample the region the unoccluded integral covers: the part of each element in front of the
+  // other's plane (raycast.cpp and exact.cpp clip i to j's front, and the point-to-polygon formula
+  // clips j to i's). Rays from a part clipped away would be blocked by the very polygon that
+  // crosses the element and penalise the pair twice.
+  thread_local std::vector<Vec3> corners_lo, corners_hi, p, q;
+  mesh_.corners(lo, corners_lo);
+  mesh_.corners(hi, corners_hi);
+  const bool lo_kept =
+      clip_to_front(corners_lo, mesh_.centroid[hi], mesh_.normal[hi], plane_epsilon_) > 0.0;
+  const bool hi_kept =
+      clip_to_front(corners_hi, mesh_.centroid[lo], mesh_.normal[lo], plane_epsilon_) > 0.0;
+  if (!lo_kept || !hi_kept) return 1.0;  // no unoccluded exchange to scale (F^u = 0)
+  stratified_points(corners_lo, rays_, rng, p);
+  stratified_points(corners_hi, rays_, rng, q);
   // Pair the strata of one element with a random permutation of the other's: an affine map
   // k -> (a k + b) mod R with odd a when R is a power of two (cheap), Fisher–Yates otherwise.
   const int R = rays_;

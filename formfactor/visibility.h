@@ -3,12 +3,16 @@
 //   V_ij = 1                        the scene is a convex enclosure, or the pair's shaft holds no
 //                                   polygon that could block it (shaft.h): no rays;
 //   V_ij = share of unblocked rays  otherwise: `rays` Embree occlusion rays between stratified,
-//                                   jittered points on i and on j, paired by a random permutation;
-//                                   hits on i's and j's own polygons are ignored (a segment meets
-//                                   them only at its ends: such hits are rounding on grazing rays).
+//                                   jittered points on the part of i in front of j's plane and
+//                                   the part of j in front of i's (the region the unoccluded
+//                                   integral covers: clip_to_front, polygon_integral.h), paired
+//                                   by a random permutation; hits on i's and j's own polygons are
+//                                   ignored (a segment meets them only at its ends: such hits are
+//                                   rounding on grazing rays).
 //
-// The points depend only on (seed, min(i,j), max(i,j)), and the shaft decision only on the
-// unordered pair, so V_ij = V_ji exactly.
+// The points depend only on (seed, min(i,j), max(i,j)) — each element is clipped by the other's
+// plane whichever row asks — and the shaft decision only on the unordered pair, so V_ij = V_ji
+// exactly.
 #pragma once
 
 #include <memory>
@@ -46,6 +50,7 @@ class Visibility {
   const Mesh& mesh_;
   int rays_;
   uint64_t seed_;
+  double plane_epsilon_ = 0.0;
   bool convex_enclosure_ = false;
   std::unique_ptr<ShaftCuller> shafts_;  // null in a convex enclosure or without shaft culling
   std::unique_ptr<EmbreeScene> embree_;  // null in a convex enclosure

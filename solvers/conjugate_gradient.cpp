@@ -11,9 +11,11 @@
 //   matrix whose relative defect |A_i F_ij - A_j F_ji| / max(A_i F_ij, A_j F_ji) exceeds
 //   reciprocity_tolerance: on a non-symmetric M, CG has no convergence guarantee. With
 //   symmetrise=true it instead solves the symmetrised system, M_ij = (A_i/rho_i) delta_ij -
-//   (A_i F_ij + A_j F_ji) / 2 (what formfactor/matrix.h's symmetrise() makes), without copying
-//   the matrix: one pass over the rows gives both A F p and (A F)^T p. That system's solution
-//   differs from this System's (and its reference's) by the reciprocity defect.
+//   (A_i F_ij + A_j F_ji) / 2, without copying the matrix: one pass over the rows gives both
+//   A F p and (A F)^T p. That is the plain average, not the inverse-variance weights of
+//   formfactor/matrix.h's symmetrise() (which the cached matrix gets by default, and which is
+//   the better choice): pair weights would need a second pass. Either way the solution differs
+//   from the unsymmetrised System's (and its reference's) by the reciprocity defect.
 // Paper: none of the three; Hestenes & Stiefel 1952, on the symmetric formulation that
 //   reciprocity allows (e.g. Cohen & Wallace 1993 ch. 5 discuss it for radiosity).
 // Parameters: preconditioner (jacobi | none, default jacobi), symmetrise (bool, default false),
