@@ -137,6 +137,19 @@ ProblemEntry problem_entry(size_t index, const PlannedProblem& planned, const Pr
   return e;
 }
 
+// Opens a run's run.json with what identifies it: the run, the build, the problem and the
+// solver's options (the last two when known; a run can fail before either exists).
+void begin_run_json(JsonWriter& json, const ExperimentSpec& spec, const PlannedRun& run,
+                    const Problem* problem, const std::map<std::string, std::string>* options) {
+  json.begin_object();
+  json.field("run_id", run.run_id);
+  json.field("run_index", run.index);
+  json.field("experiment", spec.path);
+  write_build_info(json);
+  if (problem) write_problem_info(json, *problem);
+  if (options) write_solver_info(json, run.solver, *options);
+}
+
 void write_problem_entry(JsonWriter& json, const ProblemEntry& e) {
   const ProblemSpec& spec = e.planned->spec;
   json.begin_object();
@@ -245,13 +258,7 @@ SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
       summary.flush();
       trace.flush();
       JsonWriter json;
-      json.begin_object();
-      json.field("run_id", run.run_id);
-      json.field("run_index", run.index);
-      json.field("experiment", spec.path);
-      write_build_info(json);
-      if (problem) write_problem_info(json, *problem);
-      if (options_given) write_solver_info(json, run.solver, *options_given);
+      begin_run_json(json, spec, run, problem.get(), options_given);
       json.key("run").begin_object();
       json.field("budget", spec.budget.describe());
       json.field("stop_reason", failure_stop_reason(code));
@@ -306,13 +313,7 @@ SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
     summary.flush();
 
     JsonWriter json;
-    json.begin_object();
-    json.field("run_id", run.run_id);
-    json.field("run_index", run.index);
-    json.field("experiment", spec.path);
-    write_build_info(json);
-    write_problem_info(json, *problem);
-    write_solver_info(json, run.solver, bag->values());
+    begin_run_json(json, spec, run, problem.get(), &bag->values());
     write_run_result(json, spec.budget, result);
     json.end_object();
     json.save((out / "runs" / (stem + ".run.json")).string());
