@@ -348,12 +348,16 @@ uint64_t HemicubeFormFactors::rasterise(size_t i, Buffers& buf, RowCost& cost) c
     // meets a front face along a silhouette edge their depths tie, and a back face must never win
     // such a tie (it would show as a hole in a closed scene).
     const double scale = id == kNothing ? (1.0 - 1e-6) / h : 1.0 / h;
-    auto plane_on = [&](int f, double& a0, double& aX, double& aY) {
+    // Scan-converts the polygon (X, Y)[0, count) on face f with j's 1/depth plane there.
+    auto rasterise_on = [&](int f, int count) {
       const FaceAxes& fa = kFaces[size_t(f)];
       const double Nd = fa.d_sign * N[fa.d], Ns = N[fa.s], Nt = N[fa.t];
-      a0 = (Nd - Ns - (f == 0 ? Nt : 0.0)) * scale;
-      aX = Ns / half * scale;
-      aY = Nt / half * scale;
+      const double a0 = (Nd - Ns - (f == 0 ? Nt : 0.0)) * scale;
+      const double aX = Ns / half * scale, aY = Nt / half * scale;
+      const size_t offset = layout.face_offset(f);
+      tests += scan_convert(X, Y, count, R, layout.face_height(f), a0, aX, aY, id,
+                            buf.depth.data() + offset, buf.item.data() + offset, uint32_t(offset),
+                            buf.candidates);
     };
 
     const uint8_t f0 = buf.face[corners[0]];
@@ -364,12 +368,7 @@ uint64_t HemicubeFormFactors::rasterise(size_t i, Buffers& buf, RowCost& cost) c
         X[k] = buf.px[corners[size_t(k)]];
         Y[k] = buf.py[corners[size_t(k)]];
       }
-      double a0, aX, aY;
-      plane_on(f0, a0, aX, aY);
-      const size_t offset = layout.face_offset(f0);
-      tests += scan_convert(X, Y, m, R, layout.face_height(f0), a0, aX, aY, id,
-                            buf.depth.data() + offset, buf.item.data() + offset, uint32_t(offset),
-                            buf.candidates);
+      rasterise_on(f0, m);
       continue;
     }
 
@@ -432,12 +431,7 @@ uint64_t HemicubeFormFactors::rasterise(size_t i, Buffers& buf, RowCost& cost) c
         X[k] = (p[fa.s] / d + 1.0) * half;
         Y[k] = f == 0 ? (p[fa.t] / d + 1.0) * half : p[fa.t] / d * half;
       }
-      double a0, aX, aY;
-      plane_on(f, a0, aX, aY);
-      const size_t offset = layout.face_offset(f);
-      tests += scan_convert(X, Y, count, R, layout.face_height(f), a0, aX, aY, id,
-                            buf.depth.data() + offset, buf.item.data() + offset, uint32_t(offset),
-                            buf.candidates);
+      rasterise_on(f, count);
     }
   }
   // Cracks: pixels claimed by candidates of two or more elements (see Candidate).

@@ -222,6 +222,25 @@ void ShaftCuller::build(uint32_t node, uint32_t first, uint32_t count, int depth
   build(left + 1, first + half, count - half, depth + 1);
 }
 
+template <class NodeOutside, class Visit>
+bool ShaftCuller::walk(NodeOutside&& node_outside, Visit&& visit) const {
+  uint32_t stack[64];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const Node& node = nodes_[stack[--top]];
+    if (node_outside(node.box)) continue;
+    if (node.count == 0) {
+      stack[top++] = node.first;
+      stack[top++] = node.first + 1;
+      continue;
+    }
+    for (uint32_t k = node.first; k < node.first + node.count; ++k)
+      if (visit(order_[k])) return true;
+  }
+  return false;
+}
+
 // The polygon-level test (shaft.h): the polygons other than p and q (p <= q) that may reach
 // into the shaft of p's and q's cover boxes, in the hierarchy's traversal order.
 void ShaftCuller::compute_candidates(uint32_t p, uint32_t q, size_t limit,
@@ -262,25 +281,11 @@ void ShaftCuller::compute_candidates(uint32_t p, uint32_t q, size_t limit,
     return false;
   };
 
-  uint32_t stack[64];
-  int top = 0;
-  stack[top++] = 0;
-  while (top > 0) {
-    const Node& node = nodes_[stack[--top]];
-    if (box_outside(node.box)) continue;
-    if (node.count == 0) {
-      stack[top++] = node.first;
-      stack[top++] = node.first + 1;
-      continue;
-    }
-    for (uint32_t k = node.first; k < node.first + node.count; ++k) {
-      const uint32_t id = order_[k];
-      if (id == p || id == q) continue;
-      if (polygon_outside(id)) continue;
-      out.push_back(id);
-      if (out.size() > limit) return;  // enough to know the list will not be used
-    }
-  }
+  walk(box_outside, [&](uint32_t id) {
+    if (id == p || id == q || polygon_outside(id)) return false;
+    out.push_back(id);
+    return out.size() > limit;  // enough to know the list will not be used
+  });
 }
 
 std::vector<uint32_t> ShaftCuller::polygon_pair_candidates(uint32_t p, uint32_t q) const {
@@ -385,26 +390,17 @@ int64_t ShaftCuller::element_blocker(size_t a, size_t b, const uint32_t* ids, si
   }
 
   complete();
-  uint32_t stack[64];
-  int top = 0;
-  stack[top++] = 0;
-  while (top > 0) {
-    const Node& node = nodes_[stack[--top]];
-    if (outside_union(node.box, shaft, eps) || box_outside(node.box)) continue;
-    if (node.count == 0) {
-      stack[top++] = node.first;
-      stack[top++] = node.first + 1;
-      continue;
-    }
-    for (uint32_t k = node.first; k < node.first + node.count; ++k) {
-      const uint32_t id = order_[k];
-      if (id == pa || id == pb) continue;
-      const PolygonData& d = polygons_[id];
-      if (outside_union(d.box, shaft, eps) || box_outside(d.box) || corners_outside(d)) continue;
-      return int64_t(id);
-    }
-  }
-  return -1;
+  int64_t blocker = -1;
+  walk([&](const Box& box) { return outside_union(box, shaft, eps) || box_outside(box); },
+       [&](uint32_t id) {
+         if (id == pa || id == pb) return false;
+         const PolygonData& d = polygons_[id];
+         if (outside_union(d.box, shaft, eps) || box_outside(d.box) || corners_outside(d))
+           return false;
+         blocker = int64_t(id);
+         return true;
+       });
+  return blocker;
 }
 
 }  // namespace radlab

@@ -117,6 +117,11 @@ class ShaftCuller {
   struct PairEntry;
   void build(uint32_t node, uint32_t first, uint32_t count, int depth);
   void compute_candidates(uint32_t p, uint32_t q, size_t limit, std::vector<uint32_t>& out) const;
+  // Depth-first walk of the polygon hierarchy: skips nodes for which `node_outside(box)` holds,
+  // calls `visit(id)` for every polygon in the leaves reached, and stops as soon as it returns
+  // true (the walk then returns true).
+  template <class NodeOutside, class Visit>
+  bool walk(NodeOutside&& node_outside, Visit&& visit) const;
   const PairEntry& pair_entry(uint32_t p, uint32_t q) const;
   int64_t element_blocker(size_t a, size_t b, const uint32_t* ids, size_t count) const;
 
