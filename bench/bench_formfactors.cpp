@@ -4,11 +4,12 @@
 // - raw Embree occlusion rays/s for segments between random points on random elements, singly
 //   (rtcOccluded1) and in coherent packets of 16 between two elements (rtcOccluded16), the pattern
 //   the raycast method uses;
-// - the visibility rays/s the raycast form factors achieve while computing whole rows (rays
-//   divided by the full row time, quadrature included) — target >= 0.6 of the raw packet rate.
-//   BM_RaycastVsRawPacketRatio measures both rates interleaved in one benchmark (one raycast row,
-//   then as many raw packets as that row cast rays, and again) so that the ratio it reports is
-//   immune to the machine's drift between benchmarks;
+// - the visibility rays/s the raycast form factors achieve, target >= 0.6 of the raw packet rate,
+//   measured two ways, each interleaved with raw packets in one benchmark so that the ratio is
+//   immune to the machine's drift: BM_VisibilityVsRawPacketRatio over the visibility stage (what
+//   Visibility::fraction does for a row's facing pairs: shaft decisions, sampling, packets,
+//   Embree), and BM_RaycastVsRawPacketRatio over whole rows (the quadrature of F^u included,
+//   which casts no rays);
 // - the dense matrix build on all cores (wall time).
 //
 // On builtin:office --subdiv 4 (7,008 elements, Cohen et al. 1988's ~7,000), one thread:
@@ -99,16 +100,13 @@ void BM_RawEmbreeOcclusionSingle(benchmark::State& state) {
 }
 BENCHMARK(BM_RawEmbreeOcclusionSingle);
 
-struct Packet {
-  float ox[16], oy[16], oz[16], dx[16], dy[16], dz[16], tn[16], tf[16];
-};
-
 // Packets of 16 segments between stratified points on two random elements.
-std::vector<Packet> make_packets(const Cornell& c, size_t count) {
+std::vector<SegmentPacket> make_packets(const Cornell& c, size_t count) {
   Pcg32 rng(7);
   std::vector<Vec3> corners, p, q;
-  std::vector<Packet> packets(count);
-  for (Packet& packet : packets) {
+  std::vector<SegmentPacket> packets(count);
+  for (SegmentPacket& packet : packets) {
+    packet.count = 16;
     c.mesh.corners(rng.next_below(uint32_t(c.mesh.size())), corners);
     stratified_points(corners, 16, rng, p);
     c.mesh.corners(rng.next_below(uint32_t(c.mesh.size())), corners);
@@ -119,8 +117,8 @@ std::vector<Packet> make_packets(const Cornell& c, size_t count) {
       packet.dx[k] = float(q[size_t(k)].x - p[size_t(k)].x);
       packet.dy[k] = float(q[size_t(k)].y - p[size_t(k)].y);
       packet.dz[k] = float(q[size_t(k)].z - p[size_t(k)].z);
-      packet.tn[k] = 1e-4f;
-      packet.tf[k] = 1.0f - 1e-4f;
+      packet.t_near[k] = 1e-4f;
+      packet.t_far[k] = 1.0f - 1e-4f;
     }
   }
   return packets;
@@ -128,13 +126,12 @@ std::vector<Packet> make_packets(const Cornell& c, size_t count) {
 
 void BM_RawEmbreeOcclusionPacket16(benchmark::State& state) {
   const Cornell& c = cornell();
-  const std::vector<Packet> packets = make_packets(c, 1 << 12);
+  const std::vector<SegmentPacket> packets = make_packets(c, 1 << 12);
   size_t k = 0, rays = 0;
   bool out[16];
   for (auto _ : state) {
-    const Packet& packet = packets[k++ & (packets.size() - 1)];
-    c.embree->occluded16(packet.ox, packet.oy, packet.oz, packet.dx, packet.dy, packet.dz,
-                         packet.tn, packet.tf, 16, out);
+    const SegmentPacket& packet = packets[k++ & (packets.size() - 1)];
+    c.embree->occluded16(packet, out);
     benchmark::DoNotOptimize(out);
     rays += 16;
   }
@@ -185,7 +182,7 @@ void BM_RaycastVsRawPacketRatio(benchmark::State& state) {
   RaycastOptions options;
   options.shafts = state.range(0) != 0;
   RaycastFormFactors ff(c.scene, c.mesh, options);
-  const std::vector<Packet> packets = make_packets(c, 1 << 12);
+  const std::vector<SegmentPacket> packets = make_packets(c, 1 << 12);
   std::vector<double> row(c.mesh.size());
   RowCost cost;
   double row_seconds = 0.0, raw_seconds = 0.0;
@@ -200,9 +197,8 @@ void BM_RaycastVsRawPacketRatio(benchmark::State& state) {
     const uint64_t target = raw_rays + (cost.rays - before);
     start = thread_now();
     while (raw_rays < target) {
-      const Packet& packet = packets[k++ & (packets.size() - 1)];
-      c.embree->occluded16(packet.ox, packet.oy, packet.oz, packet.dx, packet.dy, packet.dz,
-                           packet.tn, packet.tf, 16, out);
+      const SegmentPacket& packet = packets[k++ & (packets.size() - 1)];
+      c.embree->occluded16(packet, out);
       benchmark::DoNotOptimize(out);
       raw_rays += 16;
     }
@@ -217,6 +213,61 @@ void BM_RaycastVsRawPacketRatio(benchmark::State& state) {
   state.counters["row ms"] = 1e3 * row_seconds / double(i);
 }
 BENCHMARK(BM_RaycastVsRawPacketRatio)
+    ->ArgName("shafts")
+    ->Arg(1)
+    ->Arg(0)
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(3.0);
+
+// The visibility stage alone, against the same raw packet rate, interleaved as above: each
+// iteration asks Visibility::fraction for every facing pair of one row (what
+// RaycastFormFactors::row asks: shaft decision, sampling, packets, Embree) and times that; then
+// casts as many raw rtcOccluded16 rays. "ratio" is the rate at which the visibility stage delivers
+// its rays over the rate of bare Embree packets: the overhead radlab adds around Embree. (The
+// quadrature of F^u, the rest of a row, casts no rays; BM_RaycastVsRawPacketRatio includes it.)
+void BM_VisibilityVsRawPacketRatio(benchmark::State& state) {
+  const Cornell& c = cornell();
+  const bool shafts = state.range(0) != 0;
+  const RaycastOptions defaults;
+  const Visibility visibility(c.scene, c.mesh, defaults.rays, defaults.seed, shafts);
+  const double eps = plane_epsilon(c.mesh);
+  const std::vector<SegmentPacket> packets = make_packets(c, 1 << 12);
+  std::vector<uint32_t> facing;
+  RowCost cost;
+  double sum = 0.0, stage_seconds = 0.0, raw_seconds = 0.0;
+  uint64_t raw_rays = 0;
+  size_t i = 0, k = 0, pairs = 0;
+  bool out[16];
+  for (auto _ : state) {
+    const size_t row = (i++ * 7919) % c.mesh.size();
+    facing.clear();
+    for (size_t j = 0; j < c.mesh.size(); ++j)
+      if (j != row && pair_faces(c.mesh, row, j, eps)) facing.push_back(uint32_t(j));
+    pairs += facing.size();
+    const uint64_t before = cost.rays;
+    timespec start = thread_now();
+    for (uint32_t j : facing) sum += visibility.fraction(row, j, cost);
+    stage_seconds += thread_seconds(start);
+    const uint64_t target = raw_rays + (cost.rays - before);
+    start = thread_now();
+    while (raw_rays < target) {
+      const SegmentPacket& packet = packets[k++ & (packets.size() - 1)];
+      c.embree->occluded16(packet, out);
+      benchmark::DoNotOptimize(out);
+      raw_rays += 16;
+    }
+    raw_seconds += thread_seconds(start);
+  }
+  benchmark::DoNotOptimize(sum);
+  const double stage_rate = double(cost.rays) / stage_seconds;
+  const double raw_rate = double(raw_rays) / raw_seconds;
+  state.counters["visibility rays/s"] = stage_rate;
+  state.counters["raw16 rays/s"] = raw_rate;
+  state.counters["ratio"] = stage_rate / raw_rate;
+  state.counters["rays/row"] = double(cost.rays) / double(i);
+  state.counters["ns/pair"] = 1e9 * stage_seconds / double(pairs);
+}
+BENCHMARK(BM_VisibilityVsRawPacketRatio)
     ->ArgName("shafts")
     ->Arg(1)
     ->Arg(0)

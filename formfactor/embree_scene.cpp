@@ -103,28 +103,36 @@ bool EmbreeScene::occluded(const Vec3& o, const Vec3& d, double t_near, double t
   return ray.tfar < 0.0f;  // Embree sets tfar to -inf when blocked
 }
 
-void EmbreeScene::occluded16(const float* ox, const float* oy, const float* oz, const float* dx,
-                             const float* dy, const float* dz, const float* t_near,
-                             const float* t_far, int count, bool* out, uint32_t skip_a,
+void EmbreeScene::occluded16(const SegmentPacket& packet, bool* out, uint32_t skip_a,
                              uint32_t skip_b) const {
   alignas(64) RTCRay16 rays;
   alignas(64) int valid[16];
+  // Whole-width copies (they vectorise); lanes past `count` are masked off by `valid` but still
+  // get lane 0's finite values, so Embree never reads uninitialised floats.
   for (int k = 0; k < 16; ++k) {
-    bool active = k < count;
-    valid[k] = active ? -1 : 0;
-    int s = active ? k : 0;
-    rays.org_x[k] = ox[s];
-    rays.org_y[k] = oy[s];
-    rays.org_z[k] = oz[s];
-    rays.dir_x[k] = dx[s];
-    rays.dir_y[k] = dy[s];
-    rays.dir_z[k] = dz[s];
-    rays.tnear[k] = t_near[s];
-    rays.tfar[k] = t_far[s];
+    rays.org_x[k] = packet.ox[k];
+    rays.org_y[k] = packet.oy[k];
+    rays.org_z[k] = packet.oz[k];
+    rays.dir_x[k] = packet.dx[k];
+    rays.dir_y[k] = packet.dy[k];
+    rays.dir_z[k] = packet.dz[k];
+    rays.tnear[k] = packet.t_near[k];
+    rays.tfar[k] = packet.t_far[k];
     rays.time[k] = 0.0f;
     rays.mask[k] = 0xFFFFFFFFu;
     rays.id[k] = unsigned(k);
     rays.flags[k] = 0;
+    valid[k] = k < packet.count ? -1 : 0;
+  }
+  for (int k = packet.count; k < 16; ++k) {
+    rays.org_x[k] = packet.ox[0];
+    rays.org_y[k] = packet.oy[0];
+    rays.org_z[k] = packet.oz[0];
+    rays.dir_x[k] = packet.dx[0];
+    rays.dir_y[k] = packet.dy[0];
+    rays.dir_z[k] = packet.dz[0];
+    rays.tnear[k] = packet.t_near[0];
+    rays.tfar[k] = packet.t_far[0];
   }
   SkipContext skip;
   rtcInitIntersectContext(&skip.context);
@@ -134,7 +142,7 @@ void EmbreeScene::occluded16(const float* ox, const float* oy, const float* oz, 
   skip.skip_b = skip_b;
   if (skip_a != kNoPolygon || skip_b != kNoPolygon) skip.context.filter = skip_polygons;
   rtcOccluded16(valid, impl_->scene, &skip.context, &rays);
-  for (int k = 0; k < count; ++k) out[k] = rays.tfar[k] < 0.0f;
+  for (int k = 0; k < packet.count; ++k) out[k] = rays.tfar[k] < 0.0f;
 }
 
 RayHit EmbreeScene::intersect(const Vec3& o, const Vec3& d, double t_near, double t_far) const {

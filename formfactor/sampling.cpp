@@ -1,61 +1,99 @@
 #include "formfactor/sampling.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <glm/geometric.hpp>
 
 namespace radlab {
-namespace {
 
-// Area-uniform map of the unit square onto a triangle.
-Vec3 on_triangle(const Vec3& a, const Vec3& b, const Vec3& c, double s, double t) {
-  const double r = std::sqrt(s);
-  return (1.0 - r) * a + r * (1.0 - t) * b + r * t * c;
-}
-
-Vec3 on_polygon(std::span<const Vec3> c, double s, double t) {
-  if (c.size() == 4)  // bilinear: not area-uniform on a non-parallelogram, which only changes
-                      // the stratification, not the estimate of V
-    return (1 - s) * (1 - t) * c[0] + s * (1 - t) * c[1] + s * t * c[2] + (1 - s) * t * c[3];
-  if (c.size() == 3) return on_triangle(c[0], c[1], c[2], s, t);
-  // A fan: pick the triangle by area with s, then rescale s within it.
-  double total = 0.0;
-  for (size_t f = 1; f + 1 < c.size(); ++f)
-    total += glm::length(glm::cross(c[f] - c[0], c[f + 1] - c[0]));
-  double acc = 0.0;
-  for (size_t f = 1; f + 1 < c.size(); ++f) {
-    const double a = glm::length(glm::cross(c[f] - c[0], c[f + 1] - c[0])) / total;
-    if (s <= acc + a || f + 2 == c.size())
-      return on_triangle(c[0], c[f], c[f + 1], std::clamp((s - acc) / a, 0.0, 1.0), t);
-    acc += a;
+StratifiedSampler::StratifiedSampler(std::span<const Vec3> c, int strata_per_side, double inset)
+    : corners_(c),
+      side_(uint32_t(strata_per_side)),
+      inset_(inset),
+      scale_((1.0 - 2.0 * inset) / strata_per_side) {
+  if (c.size() == 4) {
+    e1_ = c[1] - c[0];
+    e3_ = c[3] - c[0];
+    twist_ = c[2] - c[1] - c[3] + c[0];
+  } else if (c.size() > 4) {
+    double total = 0.0;
+    for (size_t f = 1; f + 1 < c.size(); ++f) {
+      total += glm::length(glm::cross(c[f] - c[0], c[f + 1] - c[0]));
+      fan_.push_back(total);
+    }
+    for (double& a : fan_) a /= total;
   }
-  return c[0];
 }
 
-}  // namespace
+Vec3 StratifiedSampler::on_triangles(double s, double t) const {
+  const std::span<const Vec3> c = corners_;
+  size_t f = 0;  // fan triangle (c0, c[f+1], c[f+2]); s rescaled to its share of the area
+  if (c.size() > 3) {
+    f = size_t(std::upper_bound(fan_.begin(), fan_.end() - 1, s) - fan_.begin());
+    const double before = f == 0 ? 0.0 : fan_[f - 1];
+    const double share = fan_[f] - before;
+    s = share > 0.0 ? std::clamp((s - before) / share, 0.0, 1.0) : 0.0;
+  }
+  // Area-uniform map of the unit square onto the triangle.
+  const double r = std::sqrt(s);
+  return (1.0 - r) * c[0] + r * (1.0 - t) * c[f + 1] + r * t * c[f + 2];
+}
+
+void StratifiedSampler::points(const uint32_t* strata, const uint32_t* bits, int count, float* x,
+                               float* y, float* z) const {
+  alignas(64) float s[16], t[16];
+  const std::span<const Vec3> c = corners_;
+  const bool power_of_two = (side_ & (side_ - 1)) == 0;
+  const uint32_t mask = side_ - 1;
+  const int shift = std::countr_zero(side_);
+  const float inset = float(inset_), scale = float(scale_);
+  for (int begin = 0; begin < count; begin += 16) {
+    const int n = std::min(16, count - begin);
+    for (int k = 0; k < n; ++k) {
+      const uint32_t stratum = strata[begin + k], b = bits[begin + k];
+      const uint32_t column = power_of_two ? stratum & mask : stratum % side_;
+      const uint32_t row = power_of_two ? stratum >> shift : stratum / side_;
+      s[k] = inset + scale * (float(column) + (float(b & 0xFFFFu) + 0.5f) * 0x1p-16f);
+      t[k] = inset + scale * (float(row) + (float(b >> 16) + 0.5f) * 0x1p-16f);
+    }
+    float* px = x + begin;
+    float* py = y + begin;
+    float* pz = z + begin;
+    if (c.size() == 4) {
+      const glm::vec3 c0(c[0]), e1(e1_), e3(e3_), twist(twist_);
+      for (int k = 0; k < n; ++k) {
+        px[k] = c0.x + s[k] * e1.x + t[k] * (e3.x + s[k] * twist.x);
+        py[k] = c0.y + s[k] * e1.y + t[k] * (e3.y + s[k] * twist.y);
+        pz[k] = c0.z + s[k] * e1.z + t[k] * (e3.z + s[k] * twist.z);
+      }
+    } else if (c.size() == 3) {
+      const glm::vec3 c0(c[0]), c1(c[1]), c2(c[2]);
+      for (int k = 0; k < n; ++k) {
+        const float r = std::sqrt(s[k]), w1 = r * (1.0f - t[k]), w2 = r * t[k];
+        px[k] = c0.x + w1 * (c1.x - c0.x) + w2 * (c2.x - c0.x);
+        py[k] = c0.y + w1 * (c1.y - c0.y) + w2 * (c2.y - c0.y);
+        pz[k] = c0.z + w1 * (c1.z - c0.z) + w2 * (c2.z - c0.z);
+      }
+    } else {
+      for (int k = 0; k < n; ++k) {
+        const Vec3 p = on_triangles(double(s[k]), double(t[k]));
+        px[k] = float(p.x), py[k] = float(p.y), pz[k] = float(p.z);
+      }
+    }
+  }
+}
 
 void stratified_points(std::span<const Vec3> c, int count, Pcg32& rng, std::vector<Vec3>& out,
                        double inset) {
   out.resize(size_t(count));
   const int m = int(std::ceil(std::sqrt(double(count))));
-  const double scale = (1.0 - 2.0 * inset) / m;
-  if (m * m == count && c.size() == 4) {
-    // The common case, kept tight: every cell of a quad once, in order (no selection needed).
-    const Vec3 e1 = c[1] - c[0], e3 = c[3] - c[0], twist = c[2] - c[1] - c[3] + c[0];
-    for (int k = 0; k < count; ++k) {
-      const double s = inset + scale * (k % m + rng.next_double());
-      const double t = inset + scale * (k / m + rng.next_double());
-      out[size_t(k)] = c[0] + s * e1 + t * e3 + (s * t) * twist;
-    }
-    return;
-  }
-  if (m * m == count) {
-    // Every cell once, in order: no selection needed.
-    for (int k = 0; k < count; ++k) {
-      const double s = inset + scale * (k % m + rng.next_double());
-      const double t = inset + scale * (k / m + rng.next_double());
-      out[size_t(k)] = on_polygon(c, s, t);
-    }
+  const StratifiedSampler sampler(c, m, inset);
+  if (m * m == count) {  // every cell once, row by row: no selection needed
+    Vec3* point = out.data();
+    for (int row = 0; row < m; ++row)
+      for (int column = 0; column < m; ++column)
+        *point++ = sampler.point(column, row, rng.next_u32());
     return;
   }
   // Choose `count` distinct cells of the m x m grid.
@@ -66,9 +104,7 @@ void stratified_points(std::span<const Vec3> c, int count, Pcg32& rng, std::vect
     const int pick = k + int(rng.next_below(uint32_t(m * m - k)));
     std::swap(cells[size_t(k)], cells[size_t(pick)]);
     const int cell = cells[size_t(k)];
-    const double s = inset + scale * (cell % m + rng.next_double());
-    const double t = inset + scale * (cell / m + rng.next_double());
-    out[size_t(k)] = on_polygon(c, s, t);
+    out[size_t(k)] = sampler.point(cell % m, cell / m, rng.next_u32());
   }
 }
 

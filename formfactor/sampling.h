@@ -9,9 +9,42 @@
 
 namespace radlab {
 
-// `count` points: an m x m grid (m = ceil(sqrt(count))) of strata on the element's parameter
-// square, `count` of its cells chosen without repetition, one jittered point in each. Points stay
-// off the boundary by a relative `inset` so rays do not start on a neighbour's shared edge.
+// The map from an m x m grid of strata on the unit square onto an element: bilinear on a quad
+// (not area-uniform on a non-parallelogram, which only changes the stratification, not the
+// estimate of V), area-uniform on a triangle, and on an n-gon s picks a fan triangle by area and
+// is rescaled within it. Points stay off the boundary by a relative `inset` so rays do not start
+// on a neighbour's shared edge. Keeps a view of `corners`, which must outlive it.
+class StratifiedSampler {
+ public:
+  StratifiedSampler(std::span<const Vec3> corners, int strata_per_side, double inset = 1e-4);
+
+  // The point of stratum (column, row), jittered within it by 32 random bits (16 per axis, each
+  // at the centre of its 1/65536 of the stratum: far finer than matters to V).
+  // `count` points at once, in float (the precision of the rays they start or end): stratum
+  // strata[k] (row-major, column = strata[k] mod m) jittered by bits[k], written to x, y, z. The
+  // quad and triangle cases vectorise.
+  void points(const uint32_t* strata, const uint32_t* bits, int count, float* x, float* y,
+              float* z) const;
+
+  Vec3 point(int column, int row, uint32_t bits) const {
+    const double s = inset_ + scale_ * (column + (double(bits & 0xFFFFu) + 0.5) * 0x1p-16);
+    const double t = inset_ + scale_ * (row + (double(bits >> 16) + 0.5) * 0x1p-16);
+    if (corners_.size() == 4) return corners_[0] + s * e1_ + t * (e3_ + s * twist_);
+    return on_triangles(s, t);
+  }
+
+ private:
+  Vec3 on_triangles(double s, double t) const;
+
+  std::span<const Vec3> corners_;
+  uint32_t side_;
+  double inset_, scale_;
+  Vec3 e1_{0.0}, e3_{0.0}, twist_{0.0};  // a quad's bilinear map: c0 + s e1 + t (e3 + s twist)
+  std::vector<double> fan_;              // an n-gon's cumulative fan areas, ending at 1
+};
+
+// `count` points: an m x m grid (m = ceil(sqrt(count))) of strata, `count` of its cells chosen
+// without repetition (all of them, row by row, when count = m^2), one jittered point in each.
 void stratified_points(std::span<const Vec3> corners, int count, Pcg32& rng, std::vector<Vec3>& out,
                        double inset = 1e-4);
 

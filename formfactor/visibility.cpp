@@ -1,8 +1,11 @@
 #include "formfactor/visibility.h"
 
 #include <algorithm>
+#include <bit>
+#include <cmath>
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
+#include <numeric>
 
 #include "core/random.h"
 #include "formfactor/occlusion.h"
@@ -27,6 +30,52 @@ Visibility::Visibility(const Scene& scene, const Mesh& mesh, int rays, uint64_t 
   if (convex_enclosure_) return;
   if (shaft_culling) shafts_ = std::make_unique<ShaftCuller>(scene, mesh, plane_epsilon_);
   embree_ = std::make_unique<EmbreeScene>(mesh);
+  compute_own_polygon_margins();
+}
+
+// Bounds for deciding when a pair's rays cannot meet i's or j's own polygon (see trace).
+//
+// off_plane_[e] bounds how far the float triangles Embree holds for e's polygon P, and e's own
+// corners, lie from e's plane (through its centroid, along its normal). For any unit n_P and
+// point c_P, with d_P = max over P's vertices v of |n_P.(v - c_P)| and R_P = max |v - c_P|:
+//   |n_e.(v - c_e)| <= |n_P.(v - c_e)| + |n_e - n_P| |v - c_e| <= 2 d_P + 2 R_P |n_e - n_P|
+// (c_e is a convex combination of P's vertices, so within d_P of P's plane). For a planar polygon
+// this is rounding; for one that is off its plane (the Cornell box's red wall, by 0.8 mm) it is
+// about its deviation. float_error_ covers the rounding of vertices and ray origins to float,
+// 8 ulps of the largest coordinate.
+void Visibility::compute_own_polygon_margins() {
+  off_plane_.assign(mesh_.size(), 0.0);
+  double largest = 0.0;
+  for (const Vec3& v : mesh_.vertices)
+    largest = std::max({largest, std::abs(v.x), std::abs(v.y), std::abs(v.z)});
+  float_error_ = 8.0 * 0x1p-24 * largest;
+  const size_t polygons = mesh_.first_element_of_polygon.size() - 1;
+  for (size_t P = 0; P < polygons; ++P) {
+    const uint32_t first = mesh_.first_element_of_polygon[P];
+    const uint32_t last = mesh_.first_element_of_polygon[P + 1];
+    if (first == last) continue;
+    const Vec3 n = mesh_.normal[first];
+    const Vec3 c = mesh_.centroid[first];
+    double flat = 0.0, radius = 0.0;
+    for (uint32_t e = first; e < last; ++e)
+      for (uint32_t v : mesh_.element_vertices(e)) {
+        flat = std::max(flat, std::abs(glm::dot(n, mesh_.vertices[v] - c)));
+        radius = std::max(radius, glm::distance(mesh_.vertices[v], c));
+      }
+    for (uint32_t e = first; e < last; ++e)
+      off_plane_[e] = 2.0 * flat + 2.0 * radius * glm::distance(mesh_.normal[e], n);
+  }
+}
+
+// Whether every segment from (a point of) element `from` to a point at least `height` above
+// from's plane leaves from's polygon P before the parameter t_near >= 1e-4 (trace): it can then
+// meet P only where Embree never looks, and needs no filter for P. With D = off_plane + float
+// error, the segment's height is at least -(1-t) D + t (height - float error) and P lies below D,
+// so a hit needs t <= 2D / (height + off_plane); safe with a factor 2 to spare when that is below
+// 1e-4 / 2.
+bool Visibility::leaves_own_polygon(size_t from, double height) const {
+  const double D = off_plane_[from] + float_error_;
+  return 4.0 * D < 1e-4 * (height + off_plane_[from]);
 }
 
 Visibility::~Visibility() = default;
@@ -60,55 +109,129 @@ double Visibility::fraction(size_t i, size_t j, RowCost& cost) const {
   return trace(i, j, cost);
 }
 
+// The parts of lo and hi the rays join: each element clipped to the other's front. Sample the
+// region the unoccluded integral covers (raycast.cpp and exact.cpp clip i to j's front, and the
+// point-to-polygon formula clips j to i's): rays from a part clipped away would be blocked by the
+// very polygon that crosses the element and penalise the pair twice. False when a part is empty.
+bool Visibility::facing_parts(size_t lo, size_t hi, std::vector<Vec3>& corners_lo,
+                              std::vector<Vec3>& corners_hi) const {
+  mesh_.corners(lo, corners_lo);
+  mesh_.corners(hi, corners_hi);
+  return clip_to_front(corners_lo, mesh_.centroid[hi], mesh_.normal[hi], plane_epsilon_) > 0.0 &&
+         clip_to_front(corners_hi, mesh_.centroid[lo], mesh_.normal[lo], plane_epsilon_) > 0.0;
+}
+
+// The polygon whose hits the rays of the pair must ignore at element `own`'s end, or kNoPolygon.
+// Hits on a pair's own polygons are rounding (a segment meets a planar polygon it leaves only at
+// its end) and are filtered out, at the cost of an Embree callback per hit; where every segment
+// provably leaves `own`'s polygon before t_near (`other` is the other element's facing part) no
+// filter is needed (the filter was about 12% of the visibility time on the Cornell box).
+uint32_t Visibility::own_polygon_to_skip(size_t own, const std::vector<Vec3>& other) const {
+  switch (own_polygon_filter_) {
+    case OwnPolygonFilter::never:
+      return EmbreeScene::kNoPolygon;
+    case OwnPolygonFilter::always:
+      return mesh_.polygon[own];
+    case OwnPolygonFilter::automatic:
+      break;
+  }
+  double lowest = 1e300;
+  for (const Vec3& v : other)
+    lowest = std::min(lowest, glm::dot(v - mesh_.centroid[own], mesh_.normal[own]));
+  return leaves_own_polygon(own, lowest) ? EmbreeScene::kNoPolygon : mesh_.polygon[own];
+}
+
+int Visibility::own_polygons_filtered(size_t i, size_t j) const {
+  if (!needs_rays(i, j)) return 0;
+  const size_t lo = std::min(i, j), hi = std::max(i, j);
+  std::vector<Vec3> corners_lo, corners_hi;
+  if (!facing_parts(lo, hi, corners_lo, corners_hi)) return 0;
+  return (own_polygon_to_skip(lo, corners_hi) != EmbreeScene::kNoPolygon ? 1 : 0) +
+         (own_polygon_to_skip(hi, corners_lo) != EmbreeScene::kNoPolygon ? 1 : 0);
+}
+
 double Visibility::trace(size_t i, size_t j, RowCost& cost) const {
   // Symmetric in i and j: the same points, the same rays, whichever row asks.
   const size_t lo = std::min(i, j), hi = std::max(i, j);
   Pcg32 rng(hash_combine(hash_combine(seed_, lo), hi));
-  // Sample the region the unoccluded integral covers: the part of each element in front of the
-  // other's plane (raycast.cpp and exact.cpp clip i to j's front, and the point-to-polygon formula
-  // clips j to i's). Rays from a part clipped away would be blocked by the very polygon that
-  // crosses the element and penalise the pair twice.
   thread_local std::vector<Vec3> corners_lo, corners_hi, p, q;
-  mesh_.corners(lo, corners_lo);
-  mesh_.corners(hi, corners_hi);
-  const bool lo_kept =
-      clip_to_front(corners_lo, mesh_.centroid[hi], mesh_.normal[hi], plane_epsilon_) > 0.0;
-  const bool hi_kept =
-      clip_to_front(corners_hi, mesh_.centroid[lo], mesh_.normal[lo], plane_epsilon_) > 0.0;
-  if (!lo_kept || !hi_kept) return 1.0;  // no unoccluded exchange to scale (F^u = 0)
-  stratified_points(corners_lo, rays_, rng, p);
-  stratified_points(corners_hi, rays_, rng, q);
-  // Pair the strata of one element with a random permutation of the other's: an affine map
-  // k -> (a k + b) mod R with odd a when R is a power of two (cheap), Fisher–Yates otherwise.
+  if (!facing_parts(lo, hi, corners_lo, corners_hi))
+    return 1.0;  // no unoccluded exchange to scale (F^u = 0)
+  const uint32_t skip_lo = own_polygon_to_skip(lo, corners_hi);
+  const uint32_t skip_hi = own_polygon_to_skip(hi, corners_lo);
   const int R = rays_;
-  if ((R & (R - 1)) == 0) {
-    const uint32_t a = rng.next_u32() | 1u, b = rng.next_u32();
-    thread_local std::vector<Vec3> shuffled;
-    shuffled.resize(size_t(R));
-    for (int k = 0; k < R; ++k) shuffled[(a * uint32_t(k) + b) & uint32_t(R - 1)] = q[size_t(k)];
-    q.swap(shuffled);
-  } else {
-    for (int k = R - 1; k > 0; --k) std::swap(q[size_t(k)], q[rng.next_below(uint32_t(k + 1))]);
-  }
-
+  const int m = int(std::lround(std::sqrt(double(R))));
   int visible = 0;
-  alignas(64) float ox[16], oy[16], oz[16], dx[16], dy[16], dz[16], tn[16], tf[16];
+  thread_local SegmentPacket packet;
   bool blocked[16];
-  for (int start = 0; start < R; start += 16) {
-    const int count = std::min(16, R - start);
-    for (int k = 0; k < count; ++k) {
-      const Vec3& from = p[size_t(start + k)];
-      const Vec3 d = q[size_t(start + k)] - from;
-      ox[k] = float(from.x), oy[k] = float(from.y), oz[k] = float(from.z);
-      dx[k] = float(d.x), dy[k] = float(d.y), dz[k] = float(d.z);
-      // Parameters along the segment: skip its two ends, where it touches i and j.
-      const double eps = std::max(1e-4, 1e-6 / std::max(glm::length(d), 1e-12));
-      tn[k] = float(eps);
-      tf[k] = float(1.0 - eps);
+  auto add_segment = [&](int lane, const Vec3& from, const Vec3& to) {
+    const Vec3 d = to - from;
+    packet.ox[lane] = float(from.x), packet.oy[lane] = float(from.y),
+    packet.oz[lane] = float(from.z);
+    packet.dx[lane] = float(d.x), packet.dy[lane] = float(d.y), packet.dz[lane] = float(d.z);
+    // Parameters along the segment: skip its two ends, where it touches i and j, by 1e-4 of its
+    // length, and by at least 1e-6 m on segments shorter than 1 cm.
+    const double length2 = glm::dot(d, d);
+    const double eps = length2 >= 1e-4 ? 1e-4 : 1e-6 / std::sqrt(std::max(length2, 1e-24));
+    packet.t_near[lane] = float(eps);
+    packet.t_far[lane] = float(1.0 - eps);
+  };
+  auto flush = [&] {
+    embree_->occluded16(packet, blocked, skip_lo, skip_hi);
+    for (int k = 0; k < packet.count; ++k) visible += blocked[k] ? 0 : 1;
+  };
+  if (m * m == R) {
+    // R = m^2 (the default 16): every stratum of each element once, stratum k of lo paired with
+    // stratum (a k + b) mod R of hi when R is a power of two (a random affine permutation, odd a),
+    // with (a k + b) mod R otherwise when gcd(a, R) = 1 (a drawn odd and prime to R). The jitter
+    // of ray k comes from one hash of (pair key, k): no serial generator, so the lanes vectorise.
+    const StratifiedSampler from(corners_lo, m), to(corners_hi, m);
+    const bool power_of_two = (R & (R - 1)) == 0;
+    uint32_t a = rng.next_u32() | 1u;
+    if (!power_of_two)
+      while (std::gcd(a % uint32_t(R), uint32_t(R)) != 1) a += 2;
+    const uint32_t b = rng.next_u32();
+    const uint64_t key = (uint64_t(rng.next_u32()) << 32) | rng.next_u32();
+    alignas(64) uint32_t strata_lo[16], strata_hi[16], bits_lo[16], bits_hi[16];
+    alignas(64) float qx[16], qy[16], qz[16];
+    for (int start = 0; start < R; start += 16) {
+      const int count = std::min(16, R - start);
+      packet.count = count;
+      for (int lane = 0; lane < count; ++lane) {
+        const uint32_t k = uint32_t(start + lane);
+        strata_lo[lane] = k;
+        strata_hi[lane] = power_of_two ? (a * k + b) & uint32_t(R - 1)
+                                       : uint32_t((uint64_t(a) * k + b) % uint64_t(R));
+        const uint64_t r = mix64(key + k);
+        bits_lo[lane] = uint32_t(r);
+        bits_hi[lane] = uint32_t(r >> 32);
+      }
+      from.points(strata_lo, bits_lo, count, packet.ox, packet.oy, packet.oz);
+      to.points(strata_hi, bits_hi, count, qx, qy, qz);
+      for (int lane = 0; lane < count; ++lane) {
+        const float dx = qx[lane] - packet.ox[lane], dy = qy[lane] - packet.oy[lane],
+                    dz = qz[lane] - packet.oz[lane];
+        packet.dx[lane] = dx, packet.dy[lane] = dy, packet.dz[lane] = dz;
+        // Parameters along the segment: skip its two ends, where it touches i and j, by 1e-4 of
+        // its length, and by at least 1e-6 m on segments shorter than 1 cm.
+        const float length2 = dx * dx + dy * dy + dz * dz;
+        const float eps = length2 >= 1e-4f ? 1e-4f : 1e-6f / std::sqrt(std::max(length2, 1e-30f));
+        packet.t_near[lane] = eps;
+        packet.t_far[lane] = 1.0f - eps;
+      }
+      flush();
     }
-    embree_->occluded16(ox, oy, oz, dx, dy, dz, tn, tf, count, blocked, mesh_.polygon[lo],
-                        mesh_.polygon[hi]);
-    for (int k = 0; k < count; ++k) visible += blocked[k] ? 0 : 1;
+  } else {
+    // Any other count: R of the strata of each element, the second list shuffled.
+    stratified_points(corners_lo, R, rng, p);
+    stratified_points(corners_hi, R, rng, q);
+    for (int k = R - 1; k > 0; --k) std::swap(q[size_t(k)], q[rng.next_below(uint32_t(k + 1))]);
+    for (int start = 0; start < R; start += 16) {
+      packet.count = std::min(16, R - start);
+      for (int lane = 0; lane < packet.count; ++lane)
+        add_segment(lane, p[size_t(start + lane)], q[size_t(start + lane)]);
+      flush();
+    }
   }
   cost.rays += uint64_t(R);
   return double(visible) / R;

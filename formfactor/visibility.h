@@ -8,7 +8,8 @@
 //                                   integral covers: clip_to_front, polygon_integral.h), paired
 //                                   by a random permutation; hits on i's and j's own polygons are
 //                                   ignored (a segment meets them only at its ends: such hits are
-//                                   rounding on grazing rays).
+//                                   rounding on grazing rays; the Embree filter that drops them
+//                                   is attached only to pairs where they can occur).
 //
 // The points depend only on (seed, min(i,j), max(i,j)) — each element is clipped by the other's
 // plane whichever row asks — and the shaft decision only on the unordered pair, so V_ij = V_ji
@@ -44,8 +45,21 @@ class Visibility {
   bool casts_rays() const { return !convex_enclosure_; }
   std::vector<std::string> left_out() const;
 
+  // Which traced pairs get the Embree filter that drops hits on i's and j's own polygons:
+  // automatic (the default) only pairs where such a hit can occur; always every pair (V must not
+  // change: for tests and measurement); never none (for tests: shows the hits it removes).
+  enum class OwnPolygonFilter { automatic, always, never };
+  void set_own_polygon_filter(OwnPolygonFilter mode) { own_polygon_filter_ = mode; }
+  // How many of the pair's two polygons get that filter (0 when the pair casts no rays).
+  int own_polygons_filtered(size_t i, size_t j) const;
+
  private:
   double trace(size_t i, size_t j, RowCost& cost) const;
+  void compute_own_polygon_margins();
+  bool leaves_own_polygon(size_t from, double height) const;
+  bool facing_parts(size_t lo, size_t hi, std::vector<Vec3>& corners_lo,
+                    std::vector<Vec3>& corners_hi) const;
+  uint32_t own_polygon_to_skip(size_t own, const std::vector<Vec3>& other) const;
 
   const Mesh& mesh_;
   int rays_;
@@ -54,6 +68,9 @@ class Visibility {
   bool convex_enclosure_ = false;
   std::unique_ptr<ShaftCuller> shafts_;  // null in a convex enclosure or without shaft culling
   std::unique_ptr<EmbreeScene> embree_;  // null in a convex enclosure
+  std::vector<double> off_plane_;        // per element: its polygon's distance from its plane
+  double float_error_ = 0.0;             // rounding of coordinates to Embree's floats
+  OwnPolygonFilter own_polygon_filter_ = OwnPolygonFilter::automatic;
 };
 
 // 1e-9 of the scene's bounding-box diagonal: the distance below which points count as on a plane.

@@ -1,0 +1,120 @@
+// Visibility sampling (sampling.h) and the visibility fraction's shortcuts (visibility.h): the
+// shortcuts change the cost, never V.
+#include "formfactor/visibility.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <glm/geometric.hpp>
+#include <vector>
+
+#include "formfactor/raycast.h"
+#include "formfactor/sampling.h"
+#include "scene/builtin_scenes.h"
+#include "scene/validate.h"
+
+namespace radlab {
+namespace {
+
+// Whether p lies in the convex planar polygon c (within tol, in its plane).
+bool inside(const std::vector<Vec3>& c, const Vec3& p, double tol) {
+  const Vec3 n = glm::normalize(glm::cross(c[1] - c[0], c[2] - c[0]));
+  if (std::abs(glm::dot(p - c[0], n)) > tol) return false;
+  for (size_t k = 0; k < c.size(); ++k) {
+    const Vec3& a = c[k];
+    const Vec3& b = c[(k + 1) % c.size()];
+    if (glm::dot(glm::cross(b - a, p - a), n) < -tol) return false;
+  }
+  return true;
+}
+
+// The batched float points equal the double ones to float precision, lie on the element, and
+// every stratum of a quad gets one point, for a quad, a triangle and a pentagon.
+TEST(StratifiedSampler, FloatBatchMatchesThePointsAndStaysOnTheElement) {
+  const std::vector<std::vector<Vec3>> shapes = {
+      {Vec3(0, 0, 0), Vec3(2, 0, 0), Vec3(2.5, 1, 0), Vec3(0, 1.5, 0)},
+      {Vec3(1, 0, 1), Vec3(3, 0, 1), Vec3(1, 2, 1)},
+      {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1.5, 0.8, 0), Vec3(0.5, 1.4, 0), Vec3(-0.4, 0.7, 0)}};
+  for (const auto& shape : shapes) {
+    const int m = 4;
+    const StratifiedSampler sampler(shape, m);
+    std::vector<uint32_t> strata(16), bits(16);
+    for (uint32_t k = 0; k < 16; ++k) strata[k] = k, bits[k] = uint32_t(mix64(k) >> 7);
+    std::vector<float> x(16), y(16), z(16);
+    sampler.points(strata.data(), bits.data(), 16, x.data(), y.data(), z.data());
+    for (uint32_t k = 0; k < 16; ++k) {
+      const Vec3 exact = sampler.point(int(k % 4), int(k / 4), bits[k]);
+      EXPECT_NEAR(x[k], exact.x, 1e-6) << shape.size() << " " << k;
+      EXPECT_NEAR(y[k], exact.y, 1e-6) << shape.size() << " " << k;
+      EXPECT_NEAR(z[k], exact.z, 1e-6) << shape.size() << " " << k;
+      EXPECT_TRUE(inside(shape, Vec3(x[k], y[k], z[k]), 1e-6)) << shape.size() << " " << k;
+    }
+  }
+  // On a parallelogram the bilinear map is affine: point k lies in cell (k mod 4, k / 4).
+  const std::vector<Vec3> square = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0)};
+  const StratifiedSampler sampler(square, 4);
+  for (uint32_t k = 0; k < 16; ++k) {
+    const Vec3 p = sampler.point(int(k % 4), int(k / 4), uint32_t(mix64(k + 99)));
+    EXPECT_EQ(int(std::floor(p.x * 4)), int(k % 4));
+    EXPECT_EQ(int(std::floor(p.y * 4)), int(k / 4));
+  }
+}
+
+// The own-polygon filter is left off only where no hit on i's or j's polygon can occur: V is the
+// same as with the filter on every pair. The Cornell box's red wall is off its plane by 0.8 mm,
+// so rays leaving it do hit its other triangle: without any filter V changes there (this is what
+// makes the first check able to fail), and the automatic rule keeps the filter for those pairs.
+TEST(VisibilityOwnPolygonFilter, AutomaticRuleGivesTheSameVAsAlwaysFiltering) {
+  Scene scene = make_builtin_scene("cornell");
+  validate_scene(scene);
+  const Mesh mesh = build_mesh(scene, {6, 0.0});
+  const double eps = plane_epsilon(mesh);
+  Visibility automatic(scene, mesh, 16, 3, /*shaft_culling=*/false);
+  Visibility always(scene, mesh, 16, 3, false);
+  always.set_own_polygon_filter(Visibility::OwnPolygonFilter::always);
+  Visibility never(scene, mesh, 16, 3, false);
+  never.set_own_polygon_filter(Visibility::OwnPolygonFilter::never);
+  RowCost cost;
+  size_t pairs = 0, differ_without_filter = 0, filters = 0;
+  for (size_t i = 0; i < mesh.size(); ++i)
+    for (size_t j = i + 1; j < mesh.size(); ++j) {
+      if (!pair_faces(mesh, i, j, eps)) continue;
+      ++pairs;
+      const double v = always.fraction(i, j, cost);
+      ASSERT_EQ(automatic.fraction(i, j, cost), v) << i << " " << j;
+      differ_without_filter += never.fraction(i, j, cost) != v ? 1 : 0;
+      filters += size_t(automatic.own_polygons_filtered(i, j));
+    }
+  EXPECT_GT(pairs, 10000u);
+  EXPECT_GT(differ_without_filter, 0u);
+  // The rule decides both ways: most pairs need no filter, some (the red wall's) do.
+  EXPECT_GT(filters, 0u);
+  EXPECT_LT(filters, pairs / 2);
+}
+
+// Counts other than 4^n take the general paths (a square count not a power of two: an affine
+// permutation with a multiplier prime to R; a non-square count: chosen cells and a shuffle): V
+// stays in [0,1], symmetric, and equal to 1 for a pair nothing blocks.
+TEST(VisibilityOwnPolygonFilter, EveryRayCountIsSymmetricAndBounded) {
+  Scene scene = make_builtin_scene("cornell");
+  validate_scene(scene);
+  const Mesh mesh = build_mesh(scene, {3, 0.0});
+  const double eps = plane_epsilon(mesh);
+  for (int rays : {9, 10, 16, 36, 64}) {
+    Visibility visibility(scene, mesh, rays, 1, false);
+    RowCost cost;
+    for (size_t i = 0; i < mesh.size(); i += 5)
+      for (size_t j = 0; j < mesh.size(); j += 3) {
+        if (i == j || !pair_faces(mesh, i, j, eps)) continue;
+        const double v = visibility.fraction(i, j, cost);
+        ASSERT_GE(v, 0.0);
+        ASSERT_LE(v, 1.0);
+        ASSERT_EQ(v, visibility.fraction(j, i, cost)) << rays << " " << i << " " << j;
+        ASSERT_EQ(std::round(v * rays), v * rays) << rays;
+      }
+  }
+}
+
+}  // namespace
+}  // namespace radlab
