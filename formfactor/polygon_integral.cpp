@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <glm/geometric.hpp>
 
 #include "formfactor/point_polygon.h"
@@ -13,19 +14,47 @@ namespace {
 
 thread_local std::vector<Vec3> t_clip;
 
-double apply_rule(const std::vector<QuadraturePoint>& points, const Vec3& n, const PolygonRef& to) {
+// The rule's weighted sum of F_{dx->P_j}, the points evaluated in one batch (point_polygon.h).
+double apply_rule(const QuadratureRule& rule, const Vec3& n, const PolygonRef& to) {
+  thread_local std::vector<double> values;
+  const size_t count = rule.size();
+  values.resize(count);
+  point_to_polygon_form_factors({rule.x.data(), rule.y.data(), rule.z.data(), count}, n, to.corners,
+                                to.normal, values.data(), t_clip);
   double sum = 0.0;
-  for (const QuadraturePoint& q : points)
-    sum += q.weight * point_to_polygon_form_factor(q.position, n, to.corners, to.normal, t_clip);
+  for (size_t k = 0; k < count; ++k) sum += rule.weight[k] * values[k];
   return sum;
 }
 
 double rule_on(std::span<const Vec3> corners, const Vec3& n, const PolygonRef& to, int order,
                long long* evaluations) {
-  thread_local std::vector<QuadraturePoint> points;
-  element_quadrature(corners, order, points);
-  if (evaluations) *evaluations += static_cast<long long>(points.size());
-  return apply_rule(points, n, to);
+  thread_local QuadratureRule rule;
+  element_quadrature(corners, order, rule);
+  if (evaluations) *evaluations += static_cast<long long>(rule.size());
+  return apply_rule(rule, n, to);
+}
+
+// The fixed rules of the polygon integrated last, one per order: a form-factor row integrates
+// over the same element i against every j, so its rules are built once per order and row
+// instead of once per pair (building one cost about a third of evaluating it). Recognised by
+// its corners, compared bit for bit, so a hit is the very rule element_quadrature would build; a
+// polygon clipped differently for each j (i in front of j's plane in part only) takes the slot
+// and gives it back at the next whole one.
+struct CachedRule {
+  std::vector<Vec3> corners;
+  QuadratureRule rule;
+};
+
+const QuadratureRule& fixed_rule(std::span<const Vec3> corners, int order) {
+  thread_local std::array<CachedRule, 33> cache;
+  CachedRule& slot = cache[size_t(std::clamp(order, 1, 32))];
+  // Bit patterns, not ==: -0 and 0 (and NaNs) are told apart, so a hit is the same input.
+  const auto same = [](const Vec3& a, const Vec3& b) { return std::memcmp(&a, &b, sizeof a) == 0; };
+  if (!std::equal(corners.begin(), corners.end(), slot.corners.begin(), slot.corners.end(), same)) {
+    slot.corners.assign(corners.begin(), corners.end());
+    element_quadrature(corners, order, slot.rule);
+  }
+  return slot.rule;
 }
 
 // Area of a convex polygon from edge vectors relative to its first corner: unlike Newell's sum of
@@ -168,7 +197,7 @@ double integrate_cells(std::span<const Quad> roots, const Integrand& f, double t
 }  // namespace
 
 double polygon_form_factor_fixed(const PolygonRef& from, const PolygonRef& to, int order) {
-  return rule_on(from.corners, from.normal, to, order, nullptr);
+  return apply_rule(fixed_rule(from.corners, order), from.normal, to);
 }
 
 double polygon_form_factor_adaptive(const PolygonRef& from, const PolygonRef& to,
@@ -231,17 +260,43 @@ double clip_to_front(std::vector<Vec3>& corners, const Vec3& point, const Vec3& 
 }
 
 FixedOrderRule::FixedOrderRule(double relative_tolerance, int max_order)
-    : log_inverse_tolerance_(std::log(1000.0 / relative_tolerance)), max_order_(max_order) {}
+    : log_inverse_tolerance_(std::log(1000.0 / relative_tolerance)),
+      inverse_tolerance_(std::exp(log_inverse_tolerance_)),
+      max_order_(max_order) {}
 
 int FixedOrderRule::order(double gap, double diameter, double scale) const {
   if (!(gap > 0.0) || !(diameter > 0.0) || !(scale > 0.0)) return 0;
   const double a = 1.0 + 2.0 * gap / diameter;
-  const double log_r = std::log(a + std::sqrt(a * a - 1.0));
+  const double r = a + std::sqrt(a * a - 1.0);
+  const double s = std::min(scale, 1.0);
+  // The order m below is the smallest integer >= X = ln(K / s) / (2 ln r), K = C / tolerance,
+  // i.e. the smallest m with r^(2m) s >= K. That test needs no logarithm: r^(2m) s by repeated
+  // multiplication (relative error < 1e-14 for m <= 32) against K with a margin of 1e-9, far
+  // above both computations' rounding. When m passes with the margin and m - 1 fails with it
+  // (or m = 1), X lies clearly in (m - 1, m] and the formula below gives m too; otherwise (X
+  // within the margin of an integer, or not finite) the formula decides. Same orders, without
+  // two logarithms per pair.
+  constexpr double kMargin = 1e-9;
+  const double high = inverse_tolerance_ * (1.0 + kMargin),
+               low = inverse_tolerance_ * (1.0 - kMargin);
+  const double r2 = r * r;
+  double power = r2 * s, previous = 0.0;  // r^(2m) s and r^(2(m - 1)) s
+  int m = 1;
+  for (; m <= max_order_; ++m) {
+    if (power >= high) break;
+    previous = power;
+    power *= r2;
+  }
+  if (m > max_order_) {
+    if (previous < low) return 0;  // X > max_order: no fixed rule suffices
+  } else if (m == 1 || previous < low) {
+    return m;
+  }
+  const double log_r = std::log(r);
   // Error ~ C r^(-2m) / scale <= tol  <=>  m >= ln(C / (tol scale)) / (2 ln r).
-  const double m =
-      std::ceil((log_inverse_tolerance_ - std::log(std::min(scale, 1.0))) / (2.0 * log_r));
-  if (!(m <= double(max_order_))) return 0;
-  return std::max(1, int(m));
+  const double order = std::ceil((log_inverse_tolerance_ - std::log(s)) / (2.0 * log_r));
+  if (!(order <= double(max_order_))) return 0;
+  return std::max(1, int(order));
 }
 
 }  // namespace radlab

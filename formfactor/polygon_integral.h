@@ -68,6 +68,7 @@ class FixedOrderRule {
 
  private:
   double log_inverse_tolerance_;  // ln(C / relative_tolerance)
+  double inverse_tolerance_;      // exp of the above, C / relative_tolerance
   int max_order_;
 };
 

@@ -24,4 +24,12 @@ void gauss_legendre_unit(int order, std::vector<double>& nodes, std::vector<doub
 void element_quadrature(std::span<const Vec3> corners, int order,
                         std::vector<QuadraturePoint>& out);
 
+// The same rule as structure of arrays (point k is (x[k], y[k], z[k]) with weight[k]), for the
+// batched point-to-polygon evaluator; the same values, bit for bit, as the overload above.
+struct QuadratureRule {
+  std::vector<double> x, y, z, weight;
+  size_t size() const { return weight.size(); }
+};
+void element_quadrature(std::span<const Vec3> corners, int order, QuadratureRule& out);
+
 }  // namespace radlab
