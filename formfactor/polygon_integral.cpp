@@ -225,7 +225,7 @@ double polygon_form_factor_adaptive(const PolygonRef& from, const PolygonRef& to
 }
 
 double clip_to_front(std::vector<Vec3>& corners, const Vec3& point, const Vec3& normal,
-                     double epsilon) {
+                     double epsilon, double* lowest) {
   // Signed heights; a corner within epsilon of the plane counts as on it. Cutting an edge only
   // between a corner clearly in front and one clearly behind keeps the result free of repeated
   // corners (an exact-zero height followed by a negative one used to add the same corner twice,
@@ -234,12 +234,15 @@ double clip_to_front(std::vector<Vec3>& corners, const Vec3& point, const Vec3& 
   const size_t count = corners.size();
   height.resize(count);
   bool behind = false, in_front = false;
+  double least = 1e300;
   for (size_t k = 0; k < count; ++k) {
     const double h = glm::dot(corners[k] - point, normal);
     height[k] = std::abs(h) <= epsilon ? 0.0 : h;
     behind = behind || height[k] < 0.0;
     in_front = in_front || height[k] > 0.0;
+    least = std::min(least, height[k]);
   }
+  if (lowest) *lowest = behind ? 0.0 : least;
   if (!behind) return 1.0;
   // Nothing more than epsilon in front: at most a sliver on the plane, where the integrand is 0.
   if (!in_front) return 0.0;

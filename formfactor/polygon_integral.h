@@ -43,9 +43,11 @@ double polygon_form_factor_adaptive(const PolygonRef& from, const PolygonRef& to
 // the plane through `point` with unit `normal` and returns the fraction of the area kept (1:
 // nothing cut, `corners` untouched; 0: nothing left, including a sliver no more than `epsilon`
 // metres in front). Corners within `epsilon` of the plane count as on it, so the result has no
-// repeated corners. Integrate over the kept part and multiply by the fraction.
+// repeated corners. Integrate over the kept part and multiply by the fraction. `lowest`, if
+// given, receives the least height above the plane of the kept corners (0 when anything was cut
+// or a corner is within `epsilon` of the plane).
 double clip_to_front(std::vector<Vec3>& corners, const Vec3& point, const Vec3& normal,
-                     double epsilon);
+                     double epsilon, double* lowest = nullptr);
 
 // Chooses the number of Gauss points per axis a fixed rule needs for a relative tolerance, from
 // the Bernstein-ellipse bound for an integrand analytic within distance `gap` of an element of

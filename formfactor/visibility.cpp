@@ -113,20 +113,22 @@ double Visibility::fraction(size_t i, size_t j, RowCost& cost) const {
 // region the unoccluded integral covers (raycast.cpp and exact.cpp clip i to j's front, and the
 // point-to-polygon formula clips j to i's): rays from a part clipped away would be blocked by the
 // very polygon that crosses the element and penalise the pair twice. False when a part is empty.
-bool Visibility::facing_parts(size_t lo, size_t hi, std::vector<Vec3>& corners_lo,
-                              std::vector<Vec3>& corners_hi) const {
-  mesh_.corners(lo, corners_lo);
-  mesh_.corners(hi, corners_hi);
-  return clip_to_front(corners_lo, mesh_.centroid[hi], mesh_.normal[hi], plane_epsilon_) > 0.0 &&
-         clip_to_front(corners_hi, mesh_.centroid[lo], mesh_.normal[lo], plane_epsilon_) > 0.0;
+bool Visibility::facing_parts(size_t lo, size_t hi, FacingParts& parts) const {
+  mesh_.corners(lo, parts.lo);
+  mesh_.corners(hi, parts.hi);
+  return clip_to_front(parts.lo, mesh_.centroid[hi], mesh_.normal[hi], plane_epsilon_,
+                       &parts.lo_height) > 0.0 &&
+         clip_to_front(parts.hi, mesh_.centroid[lo], mesh_.normal[lo], plane_epsilon_,
+                       &parts.hi_height) > 0.0;
 }
 
 // The polygon whose hits the rays of the pair must ignore at element `own`'s end, or kNoPolygon.
 // Hits on a pair's own polygons are rounding (a segment meets a planar polygon it leaves only at
 // its end) and are filtered out, at the cost of an Embree callback per hit; where every segment
-// provably leaves `own`'s polygon before t_near (`other` is the other element's facing part) no
-// filter is needed (the filter was about 12% of the visibility time on the Cornell box).
-uint32_t Visibility::own_polygon_to_skip(size_t own, const std::vector<Vec3>& other) const {
+// provably leaves `own`'s polygon before t_near (the other element's facing part lies at least
+// `height` above own's plane) no filter is needed (the filter was about 12% of the visibility
+// time on the Cornell box).
+uint32_t Visibility::own_polygon_to_skip(size_t own, double height) const {
   switch (own_polygon_filter_) {
     case OwnPolygonFilter::never:
       return EmbreeScene::kNoPolygon;
@@ -135,30 +137,29 @@ uint32_t Visibility::own_polygon_to_skip(size_t own, const std::vector<Vec3>& ot
     case OwnPolygonFilter::automatic:
       break;
   }
-  double lowest = 1e300;
-  for (const Vec3& v : other)
-    lowest = std::min(lowest, glm::dot(v - mesh_.centroid[own], mesh_.normal[own]));
-  return leaves_own_polygon(own, lowest) ? EmbreeScene::kNoPolygon : mesh_.polygon[own];
+  return leaves_own_polygon(own, height) ? EmbreeScene::kNoPolygon : mesh_.polygon[own];
 }
 
 int Visibility::own_polygons_filtered(size_t i, size_t j) const {
   if (!needs_rays(i, j)) return 0;
   const size_t lo = std::min(i, j), hi = std::max(i, j);
-  std::vector<Vec3> corners_lo, corners_hi;
-  if (!facing_parts(lo, hi, corners_lo, corners_hi)) return 0;
-  return (own_polygon_to_skip(lo, corners_hi) != EmbreeScene::kNoPolygon ? 1 : 0) +
-         (own_polygon_to_skip(hi, corners_lo) != EmbreeScene::kNoPolygon ? 1 : 0);
+  FacingParts parts;
+  if (!facing_parts(lo, hi, parts)) return 0;
+  return (own_polygon_to_skip(lo, parts.hi_height) != EmbreeScene::kNoPolygon ? 1 : 0) +
+         (own_polygon_to_skip(hi, parts.lo_height) != EmbreeScene::kNoPolygon ? 1 : 0);
 }
 
 double Visibility::trace(size_t i, size_t j, RowCost& cost) const {
   // Symmetric in i and j: the same points, the same rays, whichever row asks.
   const size_t lo = std::min(i, j), hi = std::max(i, j);
   Pcg32 rng(hash_combine(hash_combine(seed_, lo), hi));
-  thread_local std::vector<Vec3> corners_lo, corners_hi, p, q;
-  if (!facing_parts(lo, hi, corners_lo, corners_hi))
-    return 1.0;  // no unoccluded exchange to scale (F^u = 0)
-  const uint32_t skip_lo = own_polygon_to_skip(lo, corners_hi);
-  const uint32_t skip_hi = own_polygon_to_skip(hi, corners_lo);
+  thread_local FacingParts parts;
+  thread_local std::vector<Vec3> p, q;
+  if (!facing_parts(lo, hi, parts)) return 1.0;  // no unoccluded exchange to scale (F^u = 0)
+  const std::vector<Vec3>& corners_lo = parts.lo;
+  const std::vector<Vec3>& corners_hi = parts.hi;
+  const uint32_t skip_lo = own_polygon_to_skip(lo, parts.hi_height);
+  const uint32_t skip_hi = own_polygon_to_skip(hi, parts.lo_height);
   const int R = rays_;
   const int m = int(std::lround(std::sqrt(double(R))));
   int visible = 0;

@@ -57,9 +57,14 @@ class Visibility {
   double trace(size_t i, size_t j, RowCost& cost) const;
   void compute_own_polygon_margins();
   bool leaves_own_polygon(size_t from, double height) const;
-  bool facing_parts(size_t lo, size_t hi, std::vector<Vec3>& corners_lo,
-                    std::vector<Vec3>& corners_hi) const;
-  uint32_t own_polygon_to_skip(size_t own, const std::vector<Vec3>& other) const;
+  // The parts of lo and hi the rays join (each clipped to the other's front), with the least
+  // height of each above the other's plane.
+  struct FacingParts {
+    std::vector<Vec3> lo, hi;
+    double lo_height = 0.0, hi_height = 0.0;
+  };
+  bool facing_parts(size_t lo, size_t hi, FacingParts& parts) const;
+  uint32_t own_polygon_to_skip(size_t own, double height) const;
 
   const Mesh& mesh_;
   int rays_;
