@@ -170,7 +170,9 @@ double thread_seconds(const timespec& start) {
   return double(now.tv_sec - start.tv_sec) + 1e-9 * double(now.tv_nsec - start.tv_nsec);
 }
 
-// The >= 0.6 target, measured in one benchmark: each iteration computes one raycast row (timed),
+// The >= 0.6 target over whole rows (the visibility stage alone: BM_VisibilityVsRawPacketRatio
+// below; docs/formfactors.md, "Speed", says why that is the reading the target is held to): each
+// iteration computes one raycast row (timed),
 // then casts as many raw rtcOccluded16 rays as that row did (timed); both on the thread's CPU
 // clock, so both halves see the same machine and other processes' load does not count. The ratio
 // of the two rates is reported as "ratio". Argument: shaft culling on (1, the default) or off (0).
