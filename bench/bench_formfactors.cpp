@@ -22,10 +22,11 @@
 // Run: build/bench/bench_formfactors --benchmark_counters_tabular=true
 // Quote ratios measured in one run; absolute times on this machine are noisy.
 #include <benchmark/benchmark.h>
-#include <time.h>
 
 #include <memory>
 
+#include "bench/bench_clock.h"
+#include "bench/bench_scenes.h"
 #include "core/random.h"
 #include "formfactor/embree_scene.h"
 #include "formfactor/hemicube.h"
@@ -40,39 +41,9 @@
 namespace radlab {
 namespace {
 
-struct Cornell {
-  Scene scene;
-  Mesh mesh;
-  std::unique_ptr<EmbreeScene> embree;
-};
-
-const Cornell& cornell() {
-  static const Cornell* c = [] {
-    auto* result = new Cornell;
-    result->scene = make_builtin_scene("cornell");
-    validate_scene(result->scene);
-    result->mesh = build_mesh(result->scene, {16, 0.0});
-    result->embree = std::make_unique<EmbreeScene>(result->mesh);
-    return result;
-  }();
-  return *c;
-}
-
-struct Office {
-  Scene scene;
-  Mesh mesh;
-};
-
-const Office& office() {
-  static const Office* o = [] {
-    auto* result = new Office;
-    result->scene = make_builtin_scene("office");
-    validate_scene(result->scene);
-    result->mesh = build_mesh(result->scene, {4, 0.0});
-    return result;
-  }();
-  return *o;
-}
+using bench::cornell;
+using bench::office;
+using Cornell = bench::SceneMesh;
 
 Vec3 random_point(const Mesh& mesh, Pcg32& rng, std::vector<Vec3>& corners,
                   std::vector<Vec3>& points) {
@@ -124,6 +95,39 @@ std::vector<SegmentPacket> make_packets(const Cornell& c, size_t count) {
   return packets;
 }
 
+// The raw half of the ratio benchmarks: casts packets until as many rays as the measured half
+// cast have gone, timing only that.
+struct RawPackets {
+  std::vector<SegmentPacket> packets = make_packets(cornell(), 1 << 12);
+  size_t next = 0;
+  uint64_t rays = 0;
+  double seconds = 0.0;
+
+  void cast(uint64_t count) {
+    const uint64_t target = rays + count;
+    bool out[16];
+    const timespec start = thread_now();
+    while (rays < target) {
+      cornell().embree->occluded16(packets[next++ & (packets.size() - 1)], out);
+      benchmark::DoNotOptimize(out);
+      rays += 16;
+    }
+    seconds += thread_seconds(start);
+  }
+};
+
+// Sets the counters every ratio benchmark reports: the measured rate (as `rate_name`), the raw
+// one, their ratio and rays per row.
+void report_ratio(benchmark::State& state, const char* rate_name, uint64_t rays, double seconds,
+                  const RawPackets& raw, size_t rows) {
+  const double rate = double(rays) / seconds;
+  const double raw_rate = double(raw.rays) / raw.seconds;
+  state.counters[rate_name] = rate;
+  state.counters["raw16 rays/s"] = raw_rate;
+  state.counters["ratio"] = rate / raw_rate;
+  state.counters["rays/row"] = double(rays) / double(rows);
+}
+
 void BM_RawEmbreeOcclusionPacket16(benchmark::State& state) {
   const Cornell& c = cornell();
   const std::vector<SegmentPacket> packets = make_packets(c, 1 << 12);
@@ -158,18 +162,6 @@ void BM_RaycastRows(benchmark::State& state) {
 }
 BENCHMARK(BM_RaycastRows)->Unit(benchmark::kMillisecond);
 
-// CPU time of the calling thread: "on one core", even when other processes share the cores.
-timespec thread_now() {
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return t;
-}
-
-double thread_seconds(const timespec& start) {
-  const timespec now = thread_now();
-  return double(now.tv_sec - start.tv_sec) + 1e-9 * double(now.tv_nsec - start.tv_nsec);
-}
-
 // The >= 0.6 target over whole rows (the visibility stage alone: BM_VisibilityVsRawPacketRatio
 // below; docs/formfactors.md, "Speed", says why that is the reading the target is held to): each
 // iteration computes one raycast row (timed),
@@ -184,34 +176,19 @@ void BM_RaycastVsRawPacketRatio(benchmark::State& state) {
   RaycastOptions options;
   options.shafts = state.range(0) != 0;
   RaycastFormFactors ff(c.scene, c.mesh, options);
-  const std::vector<SegmentPacket> packets = make_packets(c, 1 << 12);
+  RawPackets raw;
   std::vector<double> row(c.mesh.size());
   RowCost cost;
-  double row_seconds = 0.0, raw_seconds = 0.0;
-  uint64_t raw_rays = 0;
-  size_t i = 0, k = 0;
-  bool out[16];
+  double row_seconds = 0.0;
+  size_t i = 0;
   for (auto _ : state) {
     const uint64_t before = cost.rays;
-    timespec start = thread_now();
+    const timespec start = thread_now();
     ff.row((i++ * 7919) % c.mesh.size(), row, cost);
     row_seconds += thread_seconds(start);
-    const uint64_t target = raw_rays + (cost.rays - before);
-    start = thread_now();
-    while (raw_rays < target) {
-      const SegmentPacket& packet = packets[k++ & (packets.size() - 1)];
-      c.embree->occluded16(packet, out);
-      benchmark::DoNotOptimize(out);
-      raw_rays += 16;
-    }
-    raw_seconds += thread_seconds(start);
+    raw.cast(cost.rays - before);
   }
-  const double row_rate = double(cost.rays) / row_seconds;
-  const double raw_rate = double(raw_rays) / raw_seconds;
-  state.counters["raycast rays/s"] = row_rate;
-  state.counters["raw16 rays/s"] = raw_rate;
-  state.counters["ratio"] = row_rate / raw_rate;
-  state.counters["rays/row"] = double(cost.rays) / double(i);
+  report_ratio(state, "raycast rays/s", cost.rays, row_seconds, raw, i);
   state.counters["row ms"] = 1e3 * row_seconds / double(i);
 }
 BENCHMARK(BM_RaycastVsRawPacketRatio)
@@ -233,13 +210,11 @@ void BM_VisibilityVsRawPacketRatio(benchmark::State& state) {
   const RaycastOptions defaults;
   const Visibility visibility(c.scene, c.mesh, defaults.rays, defaults.seed, shafts);
   const double eps = plane_epsilon(c.mesh);
-  const std::vector<SegmentPacket> packets = make_packets(c, 1 << 12);
+  RawPackets raw;
   std::vector<uint32_t> facing;
   RowCost cost;
-  double sum = 0.0, stage_seconds = 0.0, raw_seconds = 0.0;
-  uint64_t raw_rays = 0;
-  size_t i = 0, k = 0, pairs = 0;
-  bool out[16];
+  double sum = 0.0, stage_seconds = 0.0;
+  size_t i = 0, pairs = 0;
   for (auto _ : state) {
     const size_t row = (i++ * 7919) % c.mesh.size();
     facing.clear();
@@ -247,26 +222,13 @@ void BM_VisibilityVsRawPacketRatio(benchmark::State& state) {
       if (j != row && pair_faces(c.mesh, row, j, eps)) facing.push_back(uint32_t(j));
     pairs += facing.size();
     const uint64_t before = cost.rays;
-    timespec start = thread_now();
+    const timespec start = thread_now();
     for (uint32_t j : facing) sum += visibility.fraction(row, j, cost);
     stage_seconds += thread_seconds(start);
-    const uint64_t target = raw_rays + (cost.rays - before);
-    start = thread_now();
-    while (raw_rays < target) {
-      const SegmentPacket& packet = packets[k++ & (packets.size() - 1)];
-      c.embree->occluded16(packet, out);
-      benchmark::DoNotOptimize(out);
-      raw_rays += 16;
-    }
-    raw_seconds += thread_seconds(start);
+    raw.cast(cost.rays - before);
   }
   benchmark::DoNotOptimize(sum);
-  const double stage_rate = double(cost.rays) / stage_seconds;
-  const double raw_rate = double(raw_rays) / raw_seconds;
-  state.counters["visibility rays/s"] = stage_rate;
-  state.counters["raw16 rays/s"] = raw_rate;
-  state.counters["ratio"] = stage_rate / raw_rate;
-  state.counters["rays/row"] = double(cost.rays) / double(i);
+  report_ratio(state, "visibility rays/s", cost.rays, stage_seconds, raw, i);
   state.counters["ns/pair"] = 1e9 * stage_seconds / double(pairs);
 }
 BENCHMARK(BM_VisibilityVsRawPacketRatio)
@@ -313,7 +275,7 @@ void BM_ShaftDecisionsCornell5k(benchmark::State& state) {
 BENCHMARK(BM_ShaftDecisionsCornell5k)->ArgName("tiers")->Arg(1)->Arg(0);
 
 void BM_ShaftDecisionsOffice7k(benchmark::State& state) {
-  const Office& o = office();
+  const auto& o = office();
   shaft_decisions(state, o.scene, o.mesh);
 }
 BENCHMARK(BM_ShaftDecisionsOffice7k)->ArgName("tiers")->Arg(1)->Arg(0);
@@ -321,7 +283,7 @@ BENCHMARK(BM_ShaftDecisionsOffice7k)->ArgName("tiers")->Arg(1)->Arg(0);
 // Rows of one method on the office (one thread), spread over the mesh; reports the CPU time of
 // one row (ms/row; the wall time is longer when other processes share the core).
 void office_rows(benchmark::State& state, const FormFactorMethod& method) {
-  const Office& o = office();
+  const auto& o = office();
   std::vector<double> row(o.mesh.size());
   RowCost cost;
   size_t i = 0, rows = 0;
@@ -340,7 +302,7 @@ void office_rows(benchmark::State& state, const FormFactorMethod& method) {
 }
 
 void BM_HemicubeRowOffice7k(benchmark::State& state) {
-  const Office& o = office();
+  const auto& o = office();
   HemicubeOptions options;
   options.resolution = int(state.range(0));
   HemicubeFormFactors ff(o.scene, o.mesh, options);
@@ -349,7 +311,7 @@ void BM_HemicubeRowOffice7k(benchmark::State& state) {
 BENCHMARK(BM_HemicubeRowOffice7k)->Arg(150)->Unit(benchmark::kMillisecond);
 
 void BM_RaycastRowOffice7k(benchmark::State& state) {
-  const Office& o = office();
+  const auto& o = office();
   RaycastFormFactors ff(o.scene, o.mesh, {});
   office_rows(state, ff);
 }

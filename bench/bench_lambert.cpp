@@ -16,19 +16,18 @@
 //
 // Run: build/bench/bench_lambert --benchmark_counters_tabular=true
 #include <benchmark/benchmark.h>
-#include <time.h>
 
 #include <algorithm>
-#include <glm/geometric.hpp>
 #include <span>
 
+#include "bench/bench_clock.h"
+#include "bench/bench_scenes.h"
 #include "formfactor/point_polygon.h"
 #include "formfactor/polygon_integral.h"
 #include "formfactor/quadrature.h"
 #include "formfactor/raycast.h"
 #include "formfactor/visibility.h"
 #include "scene/builtin_scenes.h"
-#include "scene/geometry.h"
 #include "scene/validate.h"
 
 namespace radlab {
@@ -50,25 +49,14 @@ struct Workload {
   std::vector<Pair> pairs;
 };
 
-const Mesh& cornell_mesh() {
-  static const Mesh* mesh = [] {
-    Scene scene = make_builtin_scene("cornell");
-    validate_scene(scene);
-    return new Mesh(build_mesh(scene, {16, 0.0}));
-  }();
-  return *mesh;
-}
+using bench::cornell;
 
 // The pairs of 64 rows and their rules, as RaycastFormFactors::unoccluded chooses them (only the
 // fixed-rule pairs: the adaptive ones use 3x3 rules on many small cells).
 Workload make_workload(int fixed_order) {
-  const Mesh& mesh = cornell_mesh();
+  const Mesh& mesh = cornell().mesh;
+  const RaycastFormFactors raycast(cornell().scene, mesh, {});
   const double eps = plane_epsilon(mesh);
-  const FixedOrderRule order_rule(1e-4, 8);
-  std::vector<double> radius(mesh.size());
-  for (size_t e = 0; e < mesh.size(); ++e)
-    for (uint32_t v : mesh.element_vertices(e))
-      radius[e] = std::max(radius[e], glm::distance(mesh.vertices[v], mesh.centroid[e]));
   Workload w;
   std::vector<Vec3> from, to;
   std::vector<QuadraturePoint> points;
@@ -76,21 +64,11 @@ Workload make_workload(int fixed_order) {
     const size_t i = (r * 7919) % mesh.size();
     for (size_t j = 0; j < mesh.size(); ++j) {
       if (j == i || !pair_faces(mesh, i, j, eps)) continue;
+      const int order = raycast.fixed_order(i, j);
+      if (order == 0) continue;
       mesh.corners(i, from);
       mesh.corners(j, to);
-      const double kept = clip_to_front(from, mesh.centroid[j], mesh.normal[j], eps);
-      if (kept <= 0.0) continue;
-      const double gap = glm::distance(mesh.centroid[i], mesh.centroid[j]) - radius[i] - radius[j];
-      const double diameter = 2.0 * radius[i];
-      double height_max = 0.0;
-      for (const Vec3& v : from)
-        height_max = std::max(height_max, glm::dot(v - mesh.centroid[j], mesh.normal[j]));
-      const Vec3 centre = kept < 1.0 ? geometry::centroid(from) : mesh.centroid[i];
-      const double height_mean = glm::dot(centre - mesh.centroid[j], mesh.normal[j]);
-      const double slope = glm::length(glm::cross(mesh.normal[i], mesh.normal[j]));
-      const int order =
-          order_rule.order(gap, diameter, height_mean / (height_max + slope * diameter));
-      if (order == 0) continue;
+      clip_to_front(from, mesh.centroid[j], mesh.normal[j], eps);
       element_quadrature(from, fixed_order > 0 ? fixed_order : order, points);
       w.pairs.push_back({w.points.size(), points.size(), w.corners.size(), to.size(),
                          mesh.normal[i], mesh.normal[j]});
@@ -105,17 +83,6 @@ Workload make_workload(int fixed_order) {
     }
   }
   return w;
-}
-
-timespec thread_now() {
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return t;
-}
-
-double thread_seconds(const timespec& start) {
-  const timespec now = thread_now();
-  return double(now.tv_sec - start.tv_sec) + 1e-9 * double(now.tv_nsec - start.tv_nsec);
 }
 
 void BM_LambertScalarVsBatched(benchmark::State& state) {

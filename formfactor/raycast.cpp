@@ -59,15 +59,10 @@ std::vector<std::string> RaycastFormFactors::left_out() const {
   return notes;
 }
 
-double RaycastFormFactors::unoccluded(size_t i, size_t j, RowCost& cost) const {
-  thread_local std::vector<Vec3> from, to;
-  mesh_.corners(i, from);
-  mesh_.corners(j, to);
-  // Integrate only over the part of i in front of j's plane (no jump in the integrand).
-  const double kept = clip_to_front(from, mesh_.centroid[j], mesh_.normal[j], plane_epsilon_);
-  if (kept <= 0.0) return 0.0;
-  const PolygonRef a{from, mesh_.normal[i]};
-  const PolygonRef b{to, mesh_.normal[j]};
+// The Gauss order for the part `from` of i (the fraction `kept` of it) in front of j's plane, or 0
+// when no fixed rule up to max_order suffices (Bernstein bound, polygon_integral.h).
+int RaycastFormFactors::order_for(size_t i, size_t j, std::span<const Vec3> from,
+                                  double kept) const {
   const double gap = glm::distance(mesh_.centroid[i], mesh_.centroid[j]) - radius_[i] - radius_[j];
   const double diameter = 2.0 * radius_[i];
   // The integrand vanishes on j's plane, roughly in proportion to the height h(x) of x above it,
@@ -83,7 +78,26 @@ double RaycastFormFactors::unoccluded(size_t i, size_t j, RowCost& cost) const {
   const double height_mean = glm::dot(centre - mesh_.centroid[j], mesh_.normal[j]);
   const double slope = glm::length(glm::cross(mesh_.normal[i], mesh_.normal[j]));
   const double scale = height_mean / (height_max + slope * diameter);
-  const int order = order_rule_.order(gap, diameter, scale);
+  return order_rule_.order(gap, diameter, scale);
+}
+
+int RaycastFormFactors::fixed_order(size_t i, size_t j) const {
+  std::vector<Vec3> from;
+  mesh_.corners(i, from);
+  const double kept = clip_to_front(from, mesh_.centroid[j], mesh_.normal[j], plane_epsilon_);
+  return kept > 0.0 ? order_for(i, j, from, kept) : 0;
+}
+
+double RaycastFormFactors::unoccluded(size_t i, size_t j, RowCost& cost) const {
+  thread_local std::vector<Vec3> from, to;
+  mesh_.corners(i, from);
+  mesh_.corners(j, to);
+  // Integrate only over the part of i in front of j's plane (no jump in the integrand).
+  const double kept = clip_to_front(from, mesh_.centroid[j], mesh_.normal[j], plane_epsilon_);
+  if (kept <= 0.0) return 0.0;
+  const PolygonRef a{from, mesh_.normal[i]};
+  const PolygonRef b{to, mesh_.normal[j]};
+  const int order = order_for(i, j, from, kept);
   if (order > 0) {
     cost.kernel_evaluations +=
         uint64_t(order * order * (from.size() == 4 ? 1 : int(from.size()) - 2));

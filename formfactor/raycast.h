@@ -58,9 +58,13 @@ class RaycastFormFactors final : public FormFactorMethod {
   // One pair, for tests and the catalogue comparisons.
   double pair(size_t i, size_t j, RowCost& cost) const;
   bool casts_rays() const { return visibility_.casts_rays(); }
+  // The order of the Gauss rule the pair's F^u uses (order x order points per fan triangle or
+  // quad), or 0 when it goes adaptive or has nothing in front of j's plane. For benchmarks.
+  int fixed_order(size_t i, size_t j) const;
 
  private:
   double unoccluded(size_t i, size_t j, RowCost& cost) const;
+  int order_for(size_t i, size_t j, std::span<const Vec3> from, double kept) const;
 
   const Mesh& mesh_;
   RaycastOptions options_;
