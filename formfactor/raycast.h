@@ -19,7 +19,7 @@
 // V's error is not controlled by `tolerance`: sampling noise (~1/sqrt(rays) per partly occluded
 // pair), and a bias where visibility correlates with the kernel (every ray counts the same,
 // whatever its cos cos / r^2), so a row of an open scene can exceed 1 by more than the quadrature
-// tolerance (builtin:cornell --subdiv 6: 1.0034 at most).
+// tolerance (builtin:cornell --subdiv 6: 1.0019 at most).
 //
 // Parameters: tolerance (relative quadrature error per pair, 1e-4), rays (per occludable pair,
 // 16), seed (0), max_order (largest fixed Gauss rule before going adaptive, 8), shafts (shaft
