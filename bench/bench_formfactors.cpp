@@ -10,7 +10,8 @@
 //   Visibility::fraction does for a row's facing pairs: shaft decisions, sampling, packets,
 //   Embree), and BM_RaycastVsRawPacketRatio over whole rows (the quadrature of F^u included,
 //   which casts no rays);
-// - the dense matrix build on all cores (wall time).
+// - the dense matrix build on all cores (wall time), with and without the two rows of a pair
+//   sharing its visibility.
 //
 // On builtin:office --subdiv 4 (7,008 elements, Cohen et al. 1988's ~7,000), one thread:
 // - one hemicube row at R = 150 (target <= 2 ms on one core; Cohen 1988: 10 s on an HP 825);
@@ -318,12 +319,32 @@ void BM_RaycastRowOffice7k(benchmark::State& state) {
 BENCHMARK(BM_RaycastRowOffice7k)->Unit(benchmark::kMillisecond);
 
 // The dense matrix on all cores: wall time (UseRealTime), also as the "build s" counter.
+// A method's rows without its begin/end_all_rows: the dense build then computes every row on
+// its own, as before pairs shared their visibility (to measure what the sharing saves).
+class RowsOnly final : public FormFactorMethod {
+ public:
+  explicit RowsOnly(const FormFactorMethod& method) : method_(method) {}
+  std::string name() const override { return method_.name(); }
+  std::string parameters() const override { return method_.parameters(); }
+  void row(size_t i, std::span<double> out, RowCost& cost) const override {
+    method_.row(i, out, cost);
+  }
+
+ private:
+  const FormFactorMethod& method_;
+};
+
+// The dense build on all cores (wall time). Argument `shared`: 1 the default (each pair's
+// visibility traced once, for both rows), 0 every row on its own.
 void BM_DenseMatrixCornell5k(benchmark::State& state) {
   const Cornell& c = cornell();
   RaycastFormFactors ff(c.scene, c.mesh, {});
+  const RowsOnly rows_only(ff);
+  const FormFactorMethod& method =
+      state.range(0) != 0 ? static_cast<const FormFactorMethod&>(ff) : rows_only;
   for (auto _ : state) {
     BuildReport report;
-    FormFactorMatrix m = build_matrix(ff, c.mesh.size(), Precision::kFloat, report);
+    FormFactorMatrix m = build_matrix(method, c.mesh.size(), Precision::kFloat, report);
     benchmark::DoNotOptimize(m.row_f32(0));
     state.counters["build s"] = report.seconds;
     state.counters["rays"] = double(report.cost.rays);
@@ -331,7 +352,13 @@ void BM_DenseMatrixCornell5k(benchmark::State& state) {
   }
   state.counters["elements"] = double(c.mesh.size());
 }
-BENCHMARK(BM_DenseMatrixCornell5k)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+BENCHMARK(BM_DenseMatrixCornell5k)
+    ->ArgName("shared")
+    ->Arg(1)
+    ->Arg(0)
+    ->Unit(benchmark::kSecond)
+    ->Iterations(1)
+    ->UseRealTime();
 
 }  // namespace
 }  // namespace radlab

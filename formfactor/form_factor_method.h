@@ -43,6 +43,11 @@ class FormFactorMethod {
   virtual std::vector<std::string> left_out() const { return {}; }
   // Fills out[j] = F_ij for all j (out.size() == mesh size). Thread-safe.
   virtual void row(size_t i, std::span<double> out, RowCost& cost) const = 0;
+  // Bracket a computation of every row (build_matrix): between them a method may keep work that
+  // the other row of a pair can reuse (raycast keeps V_ij for V_ji). Results are the same as
+  // row by row; only the cost changes. Not thread-safe themselves.
+  virtual void begin_all_rows() const {}
+  virtual void end_all_rows() const {}
 };
 
 struct FormFactorMethodInfo {

@@ -66,6 +66,12 @@ FormFactorMatrix build_matrix(const FormFactorMethod& method, size_t n, Precisio
   const auto start = std::chrono::steady_clock::now();
   FormFactorMatrix matrix(n, precision);
   tbb::combinable<RowCost> costs;
+  // Every row is asked for: the method may share work between the two rows of a pair.
+  struct AllRows {
+    const FormFactorMethod& method;
+    explicit AllRows(const FormFactorMethod& m) : method(m) { method.begin_all_rows(); }
+    ~AllRows() { method.end_all_rows(); }
+  } all_rows(method);
   std::atomic<size_t> done{0};
   std::atomic<int> last_reported{-1};
   tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1), [&](const tbb::blocked_range<size_t>& r) {

@@ -6,6 +6,7 @@
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <numeric>
+#include <thread>
 
 #include "core/random.h"
 #include "formfactor/occlusion.h"
@@ -101,12 +102,48 @@ int64_t Visibility::possible_blocker(size_t i, size_t j) const {
 }
 
 double Visibility::fraction(size_t i, size_t j, RowCost& cost) const {
-  if (!needs_rays(i, j)) {
-    ++cost.pairs_unoccluded;
-    return 1.0;
+  std::atomic<uint16_t>* slot = nullptr;
+  if (memo_) {
+    const size_t lo = std::min(i, j), hi = std::max(i, j);
+    slot = &memo_[hi * (hi - 1) / 2 + lo];
+    // Claim the pair, or wait for the thread that claimed it (a trace takes microseconds), so
+    // each pair is traced exactly once and the counts do not depend on the schedule.
+    uint16_t known = slot->load(std::memory_order_acquire);
+    for (;;) {
+      if (known == 0) {
+        if (slot->compare_exchange_weak(known, kBusy, std::memory_order_acquire)) break;
+      } else if (known == kBusy) {
+        std::this_thread::yield();
+        known = slot->load(std::memory_order_acquire);
+      } else {  // the other row of the pair has been here: the same V, no work
+        ++((known & kTracedFlag) ? cost.pairs_traced : cost.pairs_unoccluded);
+        return double(int(known & kCountMask) - 1) / rays_;
+      }
+    }
   }
-  ++cost.pairs_traced;
-  return trace(i, j, cost);
+  // Gives the claim back if the work throws, so no other thread waits for ever.
+  struct Release {
+    std::atomic<uint16_t>* slot;
+    ~Release() {
+      if (slot) slot->store(0, std::memory_order_release);
+    }
+  } release{slot};
+  const bool traced = needs_rays(i, j);
+  ++(traced ? cost.pairs_traced : cost.pairs_unoccluded);
+  const int visible = traced ? trace(i, j, cost) : rays_;
+  if (slot) {
+    slot->store(uint16_t((visible + 1) | (traced ? kTracedFlag : 0)), std::memory_order_release);
+    release.slot = nullptr;
+  }
+  return double(visible) / rays_;
+}
+
+void Visibility::remember_pairs(bool on) const {
+  const size_t n = mesh_.size();
+  if (on && n >= 2)
+    memo_ = std::make_unique<std::atomic<uint16_t>[]>(n * (n - 1) / 2);  // zero: unknown
+  else
+    memo_.reset();
 }
 
 // The parts of lo and hi the rays join: each element clipped to the other's front. Sample the
@@ -149,13 +186,13 @@ int Visibility::own_polygons_filtered(size_t i, size_t j) const {
          (own_polygon_to_skip(hi, parts.lo_height) != EmbreeScene::kNoPolygon ? 1 : 0);
 }
 
-double Visibility::trace(size_t i, size_t j, RowCost& cost) const {
+int Visibility::trace(size_t i, size_t j, RowCost& cost) const {
   // Symmetric in i and j: the same points, the same rays, whichever row asks.
   const size_t lo = std::min(i, j), hi = std::max(i, j);
   Pcg32 rng(hash_combine(hash_combine(seed_, lo), hi));
   thread_local FacingParts parts;
   thread_local std::vector<Vec3> p, q;
-  if (!facing_parts(lo, hi, parts)) return 1.0;  // no unoccluded exchange to scale (F^u = 0)
+  if (!facing_parts(lo, hi, parts)) return rays_;  // no unoccluded exchange to scale (F^u = 0)
   const std::vector<Vec3>& corners_lo = parts.lo;
   const std::vector<Vec3>& corners_hi = parts.hi;
   const uint32_t skip_lo = own_polygon_to_skip(lo, parts.hi_height);
@@ -235,7 +272,7 @@ double Visibility::trace(size_t i, size_t j, RowCost& cost) const {
     }
   }
   cost.rays += uint64_t(R);
-  return double(visible) / R;
+  return visible;
 }
 
 }  // namespace radlab

@@ -16,6 +16,8 @@
 // exactly.
 #pragma once
 
+#include <atomic>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -53,8 +55,14 @@ class Visibility {
   // How many of the pair's two polygons get that filter (0 when the pair casts no rays).
   int own_polygons_filtered(size_t i, size_t j) const;
 
+  // While on, V of every pair is kept once known, so the pair's other row (V_ji = V_ij, the same
+  // rays) reuses it without a shaft test or a ray, and counts the pair as the first row did: for
+  // a build of every row (build_matrix), which then casts each pair's rays once. n(n-1) bytes.
+  // Not thread-safe itself; fraction() stays thread-safe while it is on. Values are unchanged.
+  void remember_pairs(bool on) const;
+
  private:
-  double trace(size_t i, size_t j, RowCost& cost) const;
+  int trace(size_t i, size_t j, RowCost& cost) const;  // unblocked rays of the pair
   void compute_own_polygon_margins();
   bool leaves_own_polygon(size_t from, double height) const;
   // The parts of lo and hi the rays join (each clipped to the other's front), with the least
@@ -76,6 +84,11 @@ class Visibility {
   std::vector<double> off_plane_;        // per element: its polygon's distance from its plane
   double float_error_ = 0.0;             // rounding of coordinates to Embree's floats
   OwnPolygonFilter own_polygon_filter_ = OwnPolygonFilter::automatic;
+  // remember_pairs: per unordered pair (index hi (hi - 1) / 2 + lo), 0 unknown, else the
+  // unblocked rays + 1, with kTracedFlag when the pair needed rays. rays <= 4096 fits below it.
+  // kBusy while one thread traces the pair.
+  static constexpr uint16_t kTracedFlag = 0x4000, kCountMask = 0x3FFF, kBusy = 0xFFFF;
+  mutable std::unique_ptr<std::atomic<uint16_t>[]> memo_;
 };
 
 // 1e-9 of the scene's bounding-box diagonal: the distance below which points count as on a plane.

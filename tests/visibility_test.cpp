@@ -9,6 +9,7 @@
 #include <glm/geometric.hpp>
 #include <vector>
 
+#include "formfactor/matrix.h"
 #include "formfactor/raycast.h"
 #include "formfactor/sampling.h"
 #include "scene/builtin_scenes.h"
@@ -114,6 +115,28 @@ TEST(VisibilityOwnPolygonFilter, EveryRayCountIsSymmetricAndBounded) {
         ASSERT_EQ(std::round(v * rays), v * rays) << rays;
       }
   }
+}
+
+// A build of every row keeps V_ij for V_ji (Visibility::remember_pairs): the same matrix, bit for
+// bit, as row by row, the same pair counts, and exactly half the rays (each unordered pair traced
+// once instead of once per row).
+TEST(VisibilityRememberPairs, DenseBuildTracesEachPairOnceWithTheSameMatrix) {
+  Scene scene = make_builtin_scene("cornell");
+  validate_scene(scene);
+  const Mesh mesh = build_mesh(scene, {5, 0.0});
+  const RaycastFormFactors ff(scene, mesh, {});
+  BuildReport report;
+  const FormFactorMatrix built = build_matrix(ff, mesh.size(), Precision::kDouble, report);
+  RowCost row_by_row;
+  std::vector<double> row(mesh.size());
+  for (size_t i = 0; i < mesh.size(); ++i) {
+    ff.row(i, row, row_by_row);
+    for (size_t j = 0; j < mesh.size(); ++j) ASSERT_EQ(built.at(i, j), row[j]) << i << " " << j;
+  }
+  EXPECT_GT(row_by_row.rays, 0u);
+  EXPECT_EQ(2 * report.cost.rays, row_by_row.rays);
+  EXPECT_EQ(report.cost.pairs_traced, row_by_row.pairs_traced);
+  EXPECT_EQ(report.cost.pairs_unoccluded, row_by_row.pairs_unoccluded);
 }
 
 }  // namespace
