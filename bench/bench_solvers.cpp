@@ -174,12 +174,16 @@ void BM_Step(benchmark::State& state, const Problem* p, const char* name,
 
 // One shot (ShootingCore::shoot: the kernel over the receivers and the shooter's own books) on
 // scattered rows, the access pattern of sorted shooting, without the solvers' selection logic:
-// to separate the cost of the fused selection from the rest of a step.
-void BM_ShotKernel(benchmark::State& state, const Problem* p, bool select) {
+// to separate the cost of the fused selection from the rest of a step. With offsets, the
+// selection is overshooting's A_j sum_c |dB_cj + o_cj| (o: one more array read per channel).
+void BM_ShotKernel(benchmark::State& state, const Problem* p, bool select, bool offsets) {
   const System& sys = *p->system;
   const size_t n = sys.size();
   ShootingCore core;
   core.init(sys);
+  Radiosity o(sys.channels(), n);
+  for (double& v : o.raw()) v = 1e-4;
+  if (offsets) core.set_priority_offset(&o);
   const double s[3] = {1e-3, 1e-3, 1e-3};
   size_t row = 0;
   const double start = cpu_seconds();
@@ -215,9 +219,11 @@ void register_all() {
                                  Order::kScattered);
     benchmark::RegisterBenchmark((tag + "/kernel/Gather").c_str(), BM_GatherKernel, p);
     benchmark::RegisterBenchmark((tag + "/kernel/Shot(no selection)").c_str(), BM_ShotKernel, p,
-                                 false);
+                                 false, false);
     benchmark::RegisterBenchmark((tag + "/kernel/Shot(fused selection)").c_str(), BM_ShotKernel, p,
-                                 true);
+                                 true, false);
+    benchmark::RegisterBenchmark((tag + "/kernel/Shot(fused selection, overshoot offsets)").c_str(),
+                                 BM_ShotKernel, p, true, true);
     struct Case {
       const char* label;
       const char* solver;

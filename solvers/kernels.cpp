@@ -66,11 +66,17 @@ void gather_scatter_scalar(const T* F, size_t n, const double* const* x, double*
   for (int c = 0; c < C; ++c) out[c] = combine(s[c]);
 }
 
-// The priority of element j after its update, in the order both versions use.
-template <int C>
+// The priority of element j after its update, in the order both versions use:
+// (0 + |dB_0j (+ o_0j)| + |dB_1j (+ o_1j)| + ...) * A_j.
+template <int C, bool kOffset>
 inline double priority(const ShotTargets& t, size_t j) {
   double p = 0.0;
-  for (int c = 0; c < C; ++c) p += std::fabs(t.unshot[c][j]);
+  for (int c = 0; c < C; ++c) {
+    if constexpr (kOffset)
+      p += std::fabs(t.unshot[c][j] + t.offset[c][j]);
+    else
+      p += std::fabs(t.unshot[c][j]);
+  }
   return p * t.area[j];
 }
 
@@ -115,7 +121,7 @@ inline void shoot1(const T* F, size_t j, const double* k, const double* kr, doub
   if constexpr (kCoverage) t.coverage[j] += g * coverage_scale;
 }
 
-template <class T, int C, bool kSelect, bool kCoverage, bool kRuns>
+template <class T, int C, bool kSelect, bool kOffset, bool kCoverage, bool kRuns>
 Argmax shoot_scalar(const T* F, size_t lo, size_t hi, const double* k, double coverage_scale,
                     const ShotTargets& t) {
   Argmax best;
@@ -126,7 +132,7 @@ Argmax shoot_scalar(const T* F, size_t lo, size_t hi, const double* k, double co
     for (size_t j = a; j < b; ++j) {
       shoot1<T, C, kCoverage, kRuns>(F, j, k, kr, coverage_scale, t);
       if constexpr (kSelect) {
-        const double p = priority<C>(t, j);
+        const double p = priority<C, kOffset>(t, j);
         if (p > best.value) best = {p, j};
       }
     }
@@ -247,6 +253,7 @@ template <int C>
 struct Lanes {
   double* u[C];
   const double* rho[C];
+  const double* o[C];  // offsets (null without)
   const double* area;
   double* coverage;
   const double* inverse_area;
@@ -255,13 +262,14 @@ struct Lanes {
     for (int c = 0; c < C; ++c) {
       u[c] = t.unshot[c];
       rho[c] = t.reflectance[c];
+      o[c] = t.offset[c];
     }
   }
 };
 
 // Updates 4 receivers starting at j (shoot1's arithmetic, 4 lanes at once); returns their
 // priorities (if kSelect). kk[c] holds k_c * rho_c with runs, k_c without.
-template <class T, int C, bool kSelect, bool kCoverage, bool kRuns>
+template <class T, int C, bool kSelect, bool kOffset, bool kCoverage, bool kRuns>
 RADLAB_AVX2_INLINE v4d shoot4(const T* F, size_t j, const v4d* kk, v4d coverage_scale,
                               const Lanes<C>& l) {
   const v4d g = load(F + j) * load(l.inverse_area + j);
@@ -274,7 +282,14 @@ RADLAB_AVX2_INLINE v4d shoot4(const T* F, size_t j, const v4d* kk, v4d coverage_
       k_rho = kk[c] * load(l.rho[c] + j);
     const v4d v = load(l.u[c] + j) + g * k_rho;
     store(l.u[c] + j, v);
-    if constexpr (kSelect) p = c == 0 ? vabs(v) : p + vabs(v);  // = 0 + |v_0| + ...
+    if constexpr (kSelect) {
+      v4d a;  // |dB_c (+ o_c)|
+      if constexpr (kOffset)
+        a = vabs(v + load(l.o[c] + j));
+      else
+        a = vabs(v);
+      p = c == 0 ? a : p + a;  // = 0 + |v_0| + ...
+    }
   }
   if constexpr (kCoverage) store(l.coverage + j, load(l.coverage + j) + g * coverage_scale);
   if constexpr (kSelect) return p * load(l.area + j);
@@ -290,7 +305,7 @@ struct BlockBest {
 // One segment [a, b) of one reflectance source, in blocks of up to 64 receivers: 8 at a time, then
 // 4, then one by one; each block's maximum is reduced once and compared with the best so far
 // (strictly greater: the first block wins ties, like the scalar loop's first index).
-template <class T, int C, bool kSelect, bool kCoverage, bool kRuns>
+template <class T, int C, bool kSelect, bool kOffset, bool kCoverage, bool kRuns>
 RADLAB_AVX2_INLINE void shoot_segment_avx2(const T* F, size_t a, size_t b, const double* k,
                                            const double* rho_scalar, double coverage_scale,
                                            const ShotTargets& t, const Lanes<C>& l,
@@ -315,7 +330,7 @@ RADLAB_AVX2_INLINE void shoot_segment_avx2(const T* F, size_t a, size_t b, const
     for (; j < head; ++j) {
       shoot1<T, C, kCoverage, kRuns>(F, j, k, kr, coverage_scale, t);
       if constexpr (kSelect) {
-        const double p = priority<C>(t, j);
+        const double p = priority<C, kOffset>(t, j);
         if (p > mm) mm = p;
       }
     }
@@ -327,15 +342,15 @@ RADLAB_AVX2_INLINE void shoot_segment_avx2(const T* F, size_t a, size_t b, const
     size_t q = j;
     for (; q + 8 <= end; q += 8) {
       __builtin_prefetch(F + q + kPrefetch);
-      const v4d p0 = shoot4<T, C, kSelect, kCoverage, kRuns>(F, q, kk, cs, l);
-      const v4d p1 = shoot4<T, C, kSelect, kCoverage, kRuns>(F, q + 4, kk, cs, l);
+      const v4d p0 = shoot4<T, C, kSelect, kOffset, kCoverage, kRuns>(F, q, kk, cs, l);
+      const v4d p1 = shoot4<T, C, kSelect, kOffset, kCoverage, kRuns>(F, q + 4, kk, cs, l);
       if constexpr (kSelect) {
         m0 = vmax(p0, m0);
         m1 = vmax(p1, m1);
       }
     }
     if (q + 4 <= end) {
-      const v4d p0 = shoot4<T, C, kSelect, kCoverage, kRuns>(F, q, kk, cs, l);
+      const v4d p0 = shoot4<T, C, kSelect, kOffset, kCoverage, kRuns>(F, q, kk, cs, l);
       if constexpr (kSelect) m0 = vmax(p0, m0);
       q += 4;
     }
@@ -347,7 +362,7 @@ RADLAB_AVX2_INLINE void shoot_segment_avx2(const T* F, size_t a, size_t b, const
     for (; q < end; ++q) {
       shoot1<T, C, kCoverage, kRuns>(F, q, k, kr, coverage_scale, t);
       if constexpr (kSelect) {
-        const double p = priority<C>(t, q);
+        const double p = priority<C, kOffset>(t, q);
         if (p > mm) mm = p;
       }
     }
@@ -356,7 +371,7 @@ RADLAB_AVX2_INLINE void shoot_segment_avx2(const T* F, size_t a, size_t b, const
   }
 }
 
-template <class T, int C, bool kSelect, bool kCoverage, bool kRuns>
+template <class T, int C, bool kSelect, bool kOffset, bool kCoverage, bool kRuns>
 RADLAB_AVX2 Argmax shoot_avx2(const T* F, size_t lo, size_t hi, const double* k,
                               double coverage_scale, const ShotTargets& t) {
   const Lanes<C> l(t);
@@ -365,19 +380,19 @@ RADLAB_AVX2 Argmax shoot_avx2(const T* F, size_t lo, size_t hi, const double* k,
   if constexpr (kRuns) {
     for (const ReflectanceRun* run = first_run(t, lo); lo < hi; ++run) {
       const size_t b = std::min(hi, run->end);
-      shoot_segment_avx2<T, C, kSelect, kCoverage, true>(F, lo, b, k, run->rho, coverage_scale, t,
-                                                         l, block);
+      shoot_segment_avx2<T, C, kSelect, kOffset, kCoverage, true>(F, lo, b, k, run->rho,
+                                                                  coverage_scale, t, l, block);
       lo = b;
     }
   } else {
-    shoot_segment_avx2<T, C, kSelect, kCoverage, false>(F, lo, hi, k, nullptr, coverage_scale, t, l,
-                                                        block);
+    shoot_segment_avx2<T, C, kSelect, kOffset, kCoverage, false>(F, lo, hi, k, nullptr,
+                                                                 coverage_scale, t, l, block);
   }
   Argmax best;
   if constexpr (kSelect) {
     if (block.start != kNone) {  // the first element of the block holding the block's maximum
       for (size_t j = block.start; j < block.end; ++j)
-        if (priority<C>(t, j) == block.value) {
+        if (priority<C, kOffset>(t, j) == block.value) {
           best = {block.value, j};
           break;
         }
@@ -443,32 +458,35 @@ void gather_scatter_dispatch(const T* F, const Radiosity& x, double* out, Radios
   return gather_scatter_scalar<T, 3>(F, n, xp, out, zp, a);
 }
 
-template <class T, int C, bool kSelect, bool kCoverage, bool kRuns>
+template <class T, int C, bool kSelect, bool kOffset, bool kCoverage, bool kRuns>
 Argmax shoot_isa(const T* F, size_t lo, size_t hi, const double* k, double cs,
                  const ShotTargets& t) {
 #ifdef RADLAB_HAVE_AVX2_KERNELS
   if (vector_enabled().load(std::memory_order_relaxed))
-    return shoot_avx2<T, C, kSelect, kCoverage, kRuns>(F, lo, hi, k, cs, t);
+    return shoot_avx2<T, C, kSelect, kOffset, kCoverage, kRuns>(F, lo, hi, k, cs, t);
 #endif
-  return shoot_scalar<T, C, kSelect, kCoverage, kRuns>(F, lo, hi, k, cs, t);
+  return shoot_scalar<T, C, kSelect, kOffset, kCoverage, kRuns>(F, lo, hi, k, cs, t);
 }
 
-template <class T, int C, bool kSelect, bool kCoverage>
+template <class T, int C, bool kSelect, bool kOffset, bool kCoverage>
 Argmax shoot_runs(const T* F, size_t lo, size_t hi, const double* k, double cs,
                   const ShotTargets& t) {
-  if (t.runs) return shoot_isa<T, C, kSelect, kCoverage, true>(F, lo, hi, k, cs, t);
-  return shoot_isa<T, C, kSelect, kCoverage, false>(F, lo, hi, k, cs, t);
+  if (t.runs) return shoot_isa<T, C, kSelect, kOffset, kCoverage, true>(F, lo, hi, k, cs, t);
+  return shoot_isa<T, C, kSelect, kOffset, kCoverage, false>(F, lo, hi, k, cs, t);
 }
 
 template <class T, int C>
 Argmax shoot_flags(const T* F, size_t lo, size_t hi, const double* k, double cs,
                    const ShotTargets& t, bool select) {
   const bool coverage = t.coverage != nullptr;
+  if (select && t.offset[0])
+    return coverage ? shoot_runs<T, C, true, true, true>(F, lo, hi, k, cs, t)
+                    : shoot_runs<T, C, true, true, false>(F, lo, hi, k, cs, t);
   if (select)
-    return coverage ? shoot_runs<T, C, true, true>(F, lo, hi, k, cs, t)
-                    : shoot_runs<T, C, true, false>(F, lo, hi, k, cs, t);
-  return coverage ? shoot_runs<T, C, false, true>(F, lo, hi, k, cs, t)
-                  : shoot_runs<T, C, false, false>(F, lo, hi, k, cs, t);
+    return coverage ? shoot_runs<T, C, true, false, true>(F, lo, hi, k, cs, t)
+                    : shoot_runs<T, C, true, false, false>(F, lo, hi, k, cs, t);
+  return coverage ? shoot_runs<T, C, false, false, true>(F, lo, hi, k, cs, t)
+                  : shoot_runs<T, C, false, false, false>(F, lo, hi, k, cs, t);
 }
 
 template <class T>
@@ -508,13 +526,26 @@ Argmax shoot(const double* F, size_t lo, size_t hi, const double* k, double cove
   return shoot_dispatch(F, lo, hi, k, coverage_scale, targets, select);
 }
 
-Argmax max_priority(size_t lo, size_t hi, const ShotTargets& t) {
+namespace {
+
+template <int C, bool kOffset>
+Argmax max_priority_scan(size_t lo, size_t hi, const ShotTargets& t) {
   Argmax best;
   for (size_t j = lo; j < hi; ++j) {
-    const double p = t.channels == 1 ? priority<1>(t, j) : priority<3>(t, j);
+    const double p = priority<C, kOffset>(t, j);
     if (p > best.value) best = {p, j};
   }
   return best;
+}
+
+}  // namespace
+
+Argmax max_priority(size_t lo, size_t hi, const ShotTargets& t) {
+  if (t.offset[0])
+    return t.channels == 1 ? max_priority_scan<1, true>(lo, hi, t)
+                           : max_priority_scan<3, true>(lo, hi, t);
+  return t.channels == 1 ? max_priority_scan<1, false>(lo, hi, t)
+                         : max_priority_scan<3, false>(lo, hi, t);
 }
 
 void unshot_power(const ShotTargets& t, size_t n, bool clamp_negative, double* out) {

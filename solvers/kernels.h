@@ -43,6 +43,9 @@ struct ShotTargets {
   const double* inverse_area = nullptr;                        // 1 / A[j]
   const double* area = nullptr;                                // A[j], for the priority
   double* coverage = nullptr;                                  // Wu & Wang's dff (optional)
+  // Optional offsets o_c[j] in the priority, A_j sum_c |dB_cj + o_cj| (overshooting: each
+  // element's overshoot of its last shot). Read only; all channels set, or none (null).
+  const double* offset[3] = {nullptr, nullptr, nullptr};
   // Optional runs of equal reflectance covering every element, in order. With runs, k_c * rho_c
   // is formed once per run instead of once per receiver and channel, and the reflectance arrays
   // are not read; the results are the same bits either way.
@@ -52,7 +55,8 @@ struct ShotTargets {
 
 inline constexpr size_t kNone = std::numeric_limits<size_t>::max();
 
-// The largest priority A_j * sum_c |dB_cj| in a range and the lowest index holding it.
+// The largest priority A_j * sum_c |dB_cj| (A_j * sum_c |dB_cj + o_cj| with offsets) in a range
+// and the lowest index holding it.
 struct Argmax {
   double value = -1.0;
   size_t index = kNone;
@@ -65,7 +69,8 @@ struct Argmax {
 // coverage set, also coverage[j] += (F[j] * inverse_area[j]) * coverage_scale (F_ji =
 // F_ij A_i / A_j for coverage_scale = A_i). With select, returns the largest priority among the
 // updated elements (fused into the same pass: a shot changes every receiver's priority, so any heap
-// or tree would pay at least this much to learn the new maximum).
+// or tree would pay at least this much to learn the new maximum), with the targets' offsets if
+// set: the same bits as max_priority over [lo, hi) after the shot.
 Argmax shoot(const float* F, size_t lo, size_t hi, const double* k, double coverage_scale,
              const ShotTargets& targets, bool select);
 Argmax shoot(const double* F, size_t lo, size_t hi, const double* k, double coverage_scale,

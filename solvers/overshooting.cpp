@@ -20,12 +20,15 @@
 //   carry: by |A_i dB_i| an element that has just over-shot is picked again to shoot dB + o ~ 0
 //   and the solver stalls (seen on the cube with ambient: the error stayed at 0.97; on the
 //   Cornell box with regather: it froze at 1e-2). Regather cannot know o_i without the row, so
-//   it uses each element's overshoot from its last shot (0 before its first), a scan over dB.
+//   it uses each element's overshoot from its last shot (0 before its first), and finds the
+//   maximum inside the shot's pass (the shooter's new o_i is set before its shot).
 // Paper: Feda & Purgathofer 1992 and Gortler et al. 1994, as summarised by Wu & Wang 2002 §2.
 // Parameters: variant (ambient | regather, default regather), clamp (bool, default false).
 // Cost per step: one form-factor row; the ambient variant adds two passes over dB in memory (the
-//   unshot power, then the selection), the regather variant a gather over the same row and a
-//   selection pass over dB.
+//   unshot power, then the selection: its offset changes for every element at every shot), the
+//   regather variant a gather over the same row (two passes over the row, the second from cache).
+//   Regather's selection is fused into the shot's pass (kernels::shoot with offsets o), which
+//   reads o alongside dB.
 // Left out: Feda & Purgathofer's treatment of the overshoot of light sources; the solver stops
 //   only when every dB is exactly zero, which overshooting rarely reaches (the runner's budget
 //   or tolerance ends the run).
@@ -64,9 +67,12 @@ class OvershootingSolver final : public Solver {
 
   void init(const System& system) override {
     core_.init(system);
-    best_ = core_.max_priority();
     interreflection_.clear();
     overshoot_ = Radiosity(system.channels(), system.size());
+    // Regather: the core's priorities are A_j sum_c |dB_cj + o_cj|, so each shot returns the
+    // next shooter (all o = 0 here, the same bits as A_j sum_c |dB_cj|).
+    if (regather_) core_.set_priority_offset(&overshoot_);
+    best_ = core_.max_priority();
     if (!regather_) {
       for (double rho : average_reflectance(system)) {
         if (!(rho < 1.0))
@@ -113,15 +119,9 @@ class OvershootingSolver final : public Solver {
     // Regather: select by the power the shot would carry if each element's last overshoot
     // estimate still held, A_j sum_c |dB_cj + o_cj| (o_j = 0 before j's first shot). Selecting by
     // |A_j dB_j| alone re-picks the element that has just over-shot (its dB = -o is the largest)
-    // to shoot dB + o ~ 0, over and over: on the Cornell box the error froze at 1e-2.
-    best_ = {};
-    for (size_t j = 0; j < core_.size(); ++j) {
-      double p = 0.0;
-      for (int c = 0; c < channels; ++c)
-        p += std::fabs(core_.unshot().at(c, j) + overshoot_.at(c, j));
-      p *= core_.system().area()[j];
-      if (p > best_.value) best_ = {p, j};
-    }
+    // to shoot dB + o ~ 0, over and over: on the Cornell box the error froze at 1e-2. best_ is
+    // that maximum, found by the last shot's own pass (o_i was set before it) or at init: the
+    // same value and lowest index as a scan over dB, o and A now.
     if (!(best_.value > 0.0)) {
       if (core_.all_shot()) return {.finished = true};
       best_ = core_.first_unshot();
@@ -135,7 +135,7 @@ class OvershootingSolver final : public Solver {
         overshoot_.at(c, i) = rho.at(c, i) * gathered[c];
         s[c] += overshoot_.at(c, i);
       }
-      core_.shoot(F, i, s, false);
+      best_ = core_.shoot(F, i, s, true);
     });
     return {};
   }

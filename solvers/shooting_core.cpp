@@ -31,6 +31,7 @@ void ShootingCore::init(const System& system) {
     runs_.push_back(run);
   }
   if (runs_.size() * kMinimumRun > n) runs_.clear();
+  offset_ = nullptr;
   dirty_ = true;
 }
 
@@ -43,6 +44,8 @@ kernels::ShotTargets ShootingCore::targets() const {
     t.unshot[c] = self.dB_.channel(c).data();
     t.reflectance[c] = system_->reflectance().channel(c).data();
   }
+  if (offset_)
+    for (int c = 0; c < channels(); ++c) t.offset[c] = offset_->channel(c).data();
   t.area = system_->area().data();
   t.inverse_area = system_->inverse_area().data();
   if (!runs_.empty()) {
@@ -87,7 +90,12 @@ template kernels::Argmax ShootingCore::shoot(const double*, size_t, const double
 
 double ShootingCore::priority(size_t j) const {
   double p = 0.0;
-  for (int c = 0; c < channels(); ++c) p += std::fabs(dB_.at(c, j));
+  for (int c = 0; c < channels(); ++c) {
+    if (offset_)
+      p += std::fabs(dB_.at(c, j) + offset_->at(c, j));
+    else
+      p += std::fabs(dB_.at(c, j));
+  }
   return p * system_->area()[j];
 }
 

@@ -35,17 +35,23 @@ class ShootingCore {
   size_t size() const { return dB_.size(); }
   int channels() const { return dB_.channels(); }
 
+  // Priorities become A_j sum_c |dB_cj + o_cj| (overshooting), o kept by the caller with this
+  // system's shape and read whenever a priority is formed; null (the default, and after init)
+  // for A_j sum_c |dB_cj|.
+  void set_priority_offset(const Radiosity* offset) { offset_ = offset; }
+
   // Shoots s[c] from element i, given row i of F (read through System::with_row by the caller,
   // which counts it). With select, returns the element with the largest priority
-  // A_j sum_c |dB_cj| afterwards (lowest index among equals). With coverage, adds F_ji to
-  // coverage[j] for every receiver j != i (Wu & Wang's dff).
+  // A_j sum_c |dB_cj| (+ o_cj with an offset; o_i as it is at the call) afterwards (lowest index
+  // among equals): the same value and index as max_priority() after the shot. With coverage, adds
+  // F_ji to coverage[j] for every receiver j != i (Wu & Wang's dff).
   template <class T>
   kernels::Argmax shoot(const T* F, size_t i, const double* s, bool select,
                         double* coverage = nullptr);
 
   // The element with the largest priority, by a full scan.
   kernels::Argmax max_priority() const { return kernels::max_priority(0, size(), targets()); }
-  // The priority of one element (the same arithmetic as the kernels).
+  // The priority of one element (the same arithmetic as the kernels, offset included).
   double priority(size_t j) const;
   // Whether every unshot value is exactly zero.
   bool all_shot() const;
@@ -76,6 +82,7 @@ class ShootingCore {
   const System* system_ = nullptr;
   Radiosity x_, dB_;
   std::vector<kernels::ReflectanceRun> runs_;  // equal reflectance (empty: per element)
+  const Radiosity* offset_ = nullptr;          // o in the priority (null: none)
   mutable Radiosity B_;
   mutable bool dirty_ = true;
 };

@@ -31,6 +31,7 @@
 #include "solvers/kernels.h"
 #include "solvers/reference.h"
 #include "solvers/registry.h"
+#include "solvers/shooting_core.h"
 #include "tests/test_support.h"
 
 namespace radlab {
@@ -1267,6 +1268,182 @@ TEST(Registry, InvalidOptionsNameTheFieldAndValue) {
       const std::string key = params[0].substr(0, params[0].find('='));
       EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
     }
+  }
+}
+
+// The shot kernel with offsets (overshooting's fused selection): the priority after the shot is
+// A_j sum_c |dB_cj + o_cj|, evaluated here as the definition, and the result must equal a scan by
+// kernels::max_priority over the updated range, in every path (scalar and vector bit for bit).
+// Four elements with F = 0 and equal dB, o and A share the largest priority (two in one block of
+// 64, two in others), so the lowest index must win; ranges starting past some of them move it.
+TEST(ShotKernel, OffsetPriorityIsTheDefinitionBitForBit) {
+  const size_t n = 301;
+  Pcg32 rng(9);
+  std::vector<float> Ff(n);
+  std::vector<double> Fd(n), area(n), inverse_area(n), rho(3 * n), dB0(3 * n), offset(3 * n);
+  std::vector<kernels::ReflectanceRun> runs;
+  for (size_t j = 0; j < n;) {
+    kernels::ReflectanceRun run;
+    run.end = std::min(n, j + 1 + size_t(rng.next_double() * 97));
+    for (int c = 0; c < 3; ++c) run.rho[c] = rng.next_double();
+    for (; j < run.end; ++j)
+      for (int c = 0; c < 3; ++c) rho[size_t(c) * n + j] = run.rho[c];
+    runs.push_back(run);
+  }
+  for (size_t j = 0; j < n; ++j) {
+    Ff[j] = float(rng.next_double() * 1e-2);
+    Fd[j] = rng.next_double() * 1e-2;
+    area[j] = 0.01 + rng.next_double();
+    inverse_area[j] = 1.0 / area[j];
+    for (int c = 0; c < 3; ++c) {
+      dB0[size_t(c) * n + j] = rng.next_double() - 0.5;
+      offset[size_t(c) * n + j] = rng.next_double() - 0.5;  // cancels dB for some
+    }
+  }
+  for (size_t j : {size_t(10), size_t(130), size_t(131), size_t(250)}) {
+    Ff[j] = 0.0f;
+    Fd[j] = 0.0;
+    area[j] = 2.0;
+    inverse_area[j] = 0.5;
+    for (int c = 0; c < 3; ++c) {
+      dB0[size_t(c) * n + j] = -3.0;
+      offset[size_t(c) * n + j] = 1.25;
+    }
+  }
+  const double k[3] = {0.7, -0.3, 1.9}, coverage_scale = 0.37;
+  const std::vector<std::pair<size_t, size_t>> ranges = {{0, n},  {3, n}, {11, n},   {131, 300},
+                                                         {1, 70}, {5, 6}, {77, 300}, {251, n}};
+  const bool have_vector = kernels::use_vector_kernels(true);
+  int cases = 0;
+  for (int C : {1, 3})
+    for (bool use_float : {true, false})
+      for (bool coverage : {true, false})
+        for (bool with_runs : {true, false})
+          for (bool vector : {false, true}) {
+            if (vector && !have_vector) continue;
+            for (const auto& [lo, hi] : ranges) {
+              std::vector<double> dB = dB0, cov(n, 0.0);
+              kernels::ShotTargets t;
+              t.channels = C;
+              for (int c = 0; c < C; ++c) {
+                t.unshot[c] = dB.data() + size_t(c) * n;
+                t.reflectance[c] = rho.data() + size_t(c) * n;
+                t.offset[c] = offset.data() + size_t(c) * n;
+              }
+              t.inverse_area = inverse_area.data();
+              t.area = area.data();
+              if (coverage) t.coverage = cov.data();
+              if (with_runs) {
+                t.runs = runs.data();
+                t.run_count = runs.size();
+              }
+              kernels::use_vector_kernels(vector);
+              const kernels::Argmax got =
+                  use_float ? kernels::shoot(Ff.data(), lo, hi, k, coverage_scale, t, true)
+                            : kernels::shoot(Fd.data(), lo, hi, k, coverage_scale, t, true);
+              kernels::use_vector_kernels(true);
+              std::vector<double> want = dB0;
+              kernels::Argmax best;
+              for (size_t j = lo; j < hi; ++j) {
+                const double g = (use_float ? double(Ff[j]) : Fd[j]) * inverse_area[j];
+                double p = 0.0;
+                for (int c = 0; c < C; ++c) {
+                  double& u = want[size_t(c) * n + j];
+                  const volatile double delivered = g * (k[c] * rho[size_t(c) * n + j]);
+                  u += delivered;
+                  p += std::abs(u + offset[size_t(c) * n + j]);
+                }
+                p *= area[j];
+                if (p > best.value) best = {p, j};
+              }
+              const std::string what = "C=" + std::to_string(C) +
+                                       (use_float ? " float" : " double") +
+                                       (coverage ? " coverage" : "") + (with_runs ? " runs" : "") +
+                                       (vector ? " vector" : " scalar") + " [" +
+                                       std::to_string(lo) + "," + std::to_string(hi) + ")";
+              for (size_t e = 0; e < size_t(C) * n; ++e)
+                ASSERT_EQ(dB[e], want[e]) << what << " " << e;
+              const kernels::Argmax scan = kernels::max_priority(lo, hi, t);
+              EXPECT_EQ(got.index, best.index) << what;
+              EXPECT_EQ(got.value, best.value) << what;
+              EXPECT_EQ(scan.index, best.index) << what;
+              EXPECT_EQ(scan.value, best.value) << what;
+              if (lo <= 10 && hi > 250) EXPECT_EQ(got.index, 10u) << what;
+              if (lo == 11) EXPECT_EQ(got.index, 130u) << what;
+              if (lo == 131) EXPECT_EQ(got.index, 131u) << what;
+              ++cases;
+            }
+          }
+  EXPECT_GE(cases, 8 * 16);
+}
+
+// Overshooting regather selects inside the shot (ShootingCore with an offset), no longer by a
+// scan. Against a model of the solver as it was (a full scan of A_j sum_c |dB_cj + o_cj| before
+// every step, shots without selection): at every step the fused pick equals the scan's, value and
+// index, and the solver's B and dB equal the model's bit for bit. Raw (non-reciprocal) raycast
+// matrices, RGB and grey, clamp on and off, vector and scalar kernels.
+TEST(Overshooting, FusedSelectionIsTheFullScanStepByStep) {
+  for (const auto& [spec, subdiv] : {std::pair<std::string, int>{"cornell", 3}, {"cube", 6}}) {
+    auto s = setup(spec, subdiv);
+    const System& sys = *s->system;
+    const size_t n = sys.size();
+    const int C = sys.channels();
+    const Radiosity& rho = sys.reflectance();
+    for (bool clamp : {false, true})
+      for (bool vector : {true, false}) {
+        kernels::use_vector_kernels(vector);
+        const std::string what = spec + (clamp ? " clamp" : "") + (vector ? " vector" : " scalar");
+        auto solver = make("overshooting", {clamp ? "clamp=true" : "clamp=false"});
+        solver->init(sys);
+        ShootingCore model, fused;
+        model.init(sys);
+        fused.init(sys);
+        Radiosity o(C, n);
+        fused.set_priority_offset(&o);
+        kernels::Argmax from_shot = fused.max_priority();
+        int steps = 0;
+        for (; steps < 400; ++steps) {
+          kernels::Argmax best;  // the old scan
+          for (size_t j = 0; j < n; ++j) {
+            double p = 0.0;
+            for (int c = 0; c < C; ++c) p += std::fabs(model.unshot().at(c, j) + o.at(c, j));
+            p *= sys.area()[j];
+            if (p > best.value) best = {p, j};
+          }
+          ASSERT_EQ(from_shot.index, best.index) << what << " step " << steps;
+          ASSERT_EQ(from_shot.value, best.value) << what << " step " << steps;
+          const bool finished = solver->step().finished;
+          if (!(best.value > 0.0)) {
+            if (model.all_shot()) {
+              ASSERT_TRUE(finished) << what;
+              break;
+            }
+            best = model.first_unshot();
+          }
+          ASSERT_FALSE(finished) << what << " step " << steps;
+          const size_t i = best.index;
+          double shot[3] = {0.0, 0.0, 0.0};
+          for (int c = 0; c < C; ++c) shot[c] = model.unshot().at(c, i);
+          sys.with_row(i, [&](const auto* F) {
+            double gathered[3] = {0.0, 0.0, 0.0};
+            kernels::gather(F, model.unshot(), gathered, clamp);
+            for (int c = 0; c < C; ++c) {
+              o.at(c, i) = rho.at(c, i) * gathered[c];
+              shot[c] += o.at(c, i);
+            }
+            model.shoot(F, i, shot, false);
+            from_shot = fused.shoot(F, i, shot, true);
+          });
+          const auto b = solver->solution().raw(), want = model.solution().raw();
+          const auto u = solver->unshot()->raw(), want_u = model.unshot().raw();
+          for (size_t e = 0; e < b.size(); ++e) {
+            ASSERT_EQ(b[e], want[e]) << what << " step " << steps << " at " << e;
+            ASSERT_EQ(u[e], want_u[e]) << what << " step " << steps << " at " << e;
+          }
+        }
+        EXPECT_EQ(steps, 400) << what;
+        kernels::use_vector_kernels(true);
+      }
   }
 }
 
