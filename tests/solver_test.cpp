@@ -1368,9 +1368,15 @@ TEST(ShotKernel, OffsetPriorityIsTheDefinitionBitForBit) {
               EXPECT_EQ(got.value, best.value) << what;
               EXPECT_EQ(scan.index, best.index) << what;
               EXPECT_EQ(scan.value, best.value) << what;
-              if (lo <= 10 && hi > 250) EXPECT_EQ(got.index, 10u) << what;
-              if (lo == 11) EXPECT_EQ(got.index, 130u) << what;
-              if (lo == 131) EXPECT_EQ(got.index, 131u) << what;
+              if (lo <= 10 && hi > 250) {
+                EXPECT_EQ(got.index, 10u) << what;
+              }
+              if (lo == 11) {
+                EXPECT_EQ(got.index, 130u) << what;
+              }
+              if (lo == 131) {
+                EXPECT_EQ(got.index, 131u) << what;
+              }
               ++cases;
             }
           }
