@@ -211,6 +211,46 @@ TEST_P(EverySolver, VectorAndScalarKernelsAgreeBitForBit) {
     ASSERT_EQ(with_vector.raw()[k], with_scalar.raw()[k]) << GetParam() << " at " << k;
 }
 
+// Runs of random length (1 to 97) with random reflectance covering n elements; rho (3 channels
+// of n, channel after channel) gets each element's run's values.
+std::vector<kernels::ReflectanceRun> random_runs(size_t n, Pcg32& rng, std::vector<double>& rho) {
+  std::vector<kernels::ReflectanceRun> runs;
+  for (size_t j = 0; j < n;) {
+    kernels::ReflectanceRun run;
+    run.end = std::min(n, j + 1 + size_t(rng.next_double() * 97));
+    for (int c = 0; c < 3; ++c) run.rho[c] = rng.next_double();
+    for (; j < run.end; ++j)
+      for (int c = 0; c < 3; ++c) rho[size_t(c) * n + j] = run.rho[c];
+    runs.push_back(run);
+  }
+  return runs;
+}
+
+// The receivers of a kernel test's shot: C channels of n elements in dB, rho (and offset, if
+// given) laid out channel after channel; coverage and runs optional.
+kernels::ShotTargets shot_targets(int C, size_t n, std::vector<double>& dB,
+                                  const std::vector<double>& rho,
+                                  const std::vector<double>& inverse_area,
+                                  const std::vector<double>& area, double* coverage,
+                                  const std::vector<kernels::ReflectanceRun>* runs,
+                                  const double* offset = nullptr) {
+  kernels::ShotTargets t;
+  t.channels = C;
+  for (int c = 0; c < C; ++c) {
+    t.unshot[c] = dB.data() + size_t(c) * n;
+    t.reflectance[c] = rho.data() + size_t(c) * n;
+    if (offset) t.offset[c] = offset + size_t(c) * n;
+  }
+  t.inverse_area = inverse_area.data();
+  t.area = area.data();
+  t.coverage = coverage;
+  if (runs) {
+    t.runs = runs->data();
+    t.run_count = runs->size();
+  }
+  return t;
+}
+
 // The shot kernel on its own, against its definition (kernels.h):
 //   dB_cj += (F_j * (1/A_j)) * (k_c * rho_cj),  coverage_j += (F_j * (1/A_j)) * coverage_scale,
 // and the lowest index of the largest A_j sum_c |dB_cj| afterwards. Every combination (channels,
@@ -223,15 +263,7 @@ TEST(ShotKernel, EveryPathComputesTheDefinitionBitForBit) {
   Pcg32 rng(5);
   std::vector<float> Ff(n);
   std::vector<double> Fd(n), area(n), inverse_area(n), rho(3 * n), dB0(3 * n), cov0(n);
-  std::vector<kernels::ReflectanceRun> runs;
-  for (size_t j = 0; j < n;) {  // runs of random length with random reflectance
-    kernels::ReflectanceRun run;
-    run.end = std::min(n, j + 1 + size_t(rng.next_double() * 97));
-    for (int c = 0; c < 3; ++c) run.rho[c] = rng.next_double();
-    for (; j < run.end; ++j)
-      for (int c = 0; c < 3; ++c) rho[size_t(c) * n + j] = run.rho[c];
-    runs.push_back(run);
-  }
+  const std::vector<kernels::ReflectanceRun> runs = random_runs(n, rng, rho);
   for (size_t j = 0; j < n; ++j) {
     Ff[j] = float(rng.next_double() * 1e-2);
     Fd[j] = rng.next_double() * 1e-2;
@@ -254,19 +286,9 @@ TEST(ShotKernel, EveryPathComputesTheDefinitionBitForBit) {
               if (vector && !have_vector) continue;
               for (const auto& [lo, hi] : ranges) {
                 std::vector<double> dB = dB0, cov = cov0;
-                kernels::ShotTargets t;
-                t.channels = C;
-                for (int c = 0; c < C; ++c) {
-                  t.unshot[c] = dB.data() + size_t(c) * n;
-                  t.reflectance[c] = rho.data() + size_t(c) * n;
-                }
-                t.inverse_area = inverse_area.data();
-                t.area = area.data();
-                if (coverage) t.coverage = cov.data();
-                if (with_runs) {
-                  t.runs = runs.data();
-                  t.run_count = runs.size();
-                }
+                const kernels::ShotTargets t =
+                    shot_targets(C, n, dB, rho, inverse_area, area, coverage ? cov.data() : nullptr,
+                                 with_runs ? &runs : nullptr);
                 kernels::use_vector_kernels(vector);
                 const kernels::Argmax got =
                     use_float ? kernels::shoot(Ff.data(), lo, hi, k, coverage_scale, t, select)
@@ -1281,15 +1303,7 @@ TEST(ShotKernel, OffsetPriorityIsTheDefinitionBitForBit) {
   Pcg32 rng(9);
   std::vector<float> Ff(n);
   std::vector<double> Fd(n), area(n), inverse_area(n), rho(3 * n), dB0(3 * n), offset(3 * n);
-  std::vector<kernels::ReflectanceRun> runs;
-  for (size_t j = 0; j < n;) {
-    kernels::ReflectanceRun run;
-    run.end = std::min(n, j + 1 + size_t(rng.next_double() * 97));
-    for (int c = 0; c < 3; ++c) run.rho[c] = rng.next_double();
-    for (; j < run.end; ++j)
-      for (int c = 0; c < 3; ++c) rho[size_t(c) * n + j] = run.rho[c];
-    runs.push_back(run);
-  }
+  const std::vector<kernels::ReflectanceRun> runs = random_runs(n, rng, rho);
   for (size_t j = 0; j < n; ++j) {
     Ff[j] = float(rng.next_double() * 1e-2);
     Fd[j] = rng.next_double() * 1e-2;
@@ -1323,20 +1337,9 @@ TEST(ShotKernel, OffsetPriorityIsTheDefinitionBitForBit) {
             if (vector && !have_vector) continue;
             for (const auto& [lo, hi] : ranges) {
               std::vector<double> dB = dB0, cov(n, 0.0);
-              kernels::ShotTargets t;
-              t.channels = C;
-              for (int c = 0; c < C; ++c) {
-                t.unshot[c] = dB.data() + size_t(c) * n;
-                t.reflectance[c] = rho.data() + size_t(c) * n;
-                t.offset[c] = offset.data() + size_t(c) * n;
-              }
-              t.inverse_area = inverse_area.data();
-              t.area = area.data();
-              if (coverage) t.coverage = cov.data();
-              if (with_runs) {
-                t.runs = runs.data();
-                t.run_count = runs.size();
-              }
+              const kernels::ShotTargets t =
+                  shot_targets(C, n, dB, rho, inverse_area, area, coverage ? cov.data() : nullptr,
+                               with_runs ? &runs : nullptr, offset.data());
               kernels::use_vector_kernels(vector);
               const kernels::Argmax got =
                   use_float ? kernels::shoot(Ff.data(), lo, hi, k, coverage_scale, t, true)
