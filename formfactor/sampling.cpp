@@ -84,28 +84,26 @@ void StratifiedSampler::points(const uint32_t* strata, const uint32_t* bits, int
   }
 }
 
+void choose_strata(int count, int side, Pcg32& rng, std::vector<uint32_t>& out) {
+  const uint32_t cells = uint32_t(side) * uint32_t(side);
+  out.resize(cells);
+  for (uint32_t k = 0; k < cells; ++k) out[k] = k;
+  if (uint32_t(count) < cells)  // a partial Fisher-Yates shuffle: the first `count` cells
+    for (uint32_t k = 0; k < uint32_t(count); ++k)
+      std::swap(out[k], out[k + rng.next_below(cells - k)]);
+  out.resize(size_t(count));
+}
+
 void stratified_points(std::span<const Vec3> c, int count, Pcg32& rng, std::vector<Vec3>& out,
                        double inset) {
-  out.resize(size_t(count));
   const int m = int(std::ceil(std::sqrt(double(count))));
   const StratifiedSampler sampler(c, m, inset);
-  if (m * m == count) {  // every cell once, row by row: no selection needed
-    Vec3* point = out.data();
-    for (int row = 0; row < m; ++row)
-      for (int column = 0; column < m; ++column)
-        *point++ = sampler.point(column, row, rng.next_u32());
-    return;
-  }
-  // Choose `count` distinct cells of the m x m grid.
-  thread_local std::vector<int> cells;
-  cells.resize(size_t(m * m));
-  for (int k = 0; k < m * m; ++k) cells[size_t(k)] = k;
-  for (int k = 0; k < count; ++k) {
-    const int pick = k + int(rng.next_below(uint32_t(m * m - k)));
-    std::swap(cells[size_t(k)], cells[size_t(pick)]);
-    const int cell = cells[size_t(k)];
-    out[size_t(k)] = sampler.point(cell % m, cell / m, rng.next_u32());
-  }
+  thread_local std::vector<uint32_t> strata;
+  choose_strata(count, m, rng, strata);
+  out.resize(size_t(count));
+  for (size_t k = 0; k < strata.size(); ++k)
+    out[k] =
+        sampler.point(int(strata[k] % uint32_t(m)), int(strata[k] / uint32_t(m)), rng.next_u32());
 }
 
 }  // namespace radlab

@@ -43,6 +43,10 @@ class StratifiedSampler {
   std::vector<double> fan_;              // an n-gon's cumulative fan areas, ending at 1
 };
 
+// `count` strata of an m x m grid (m = `side`, count <= m^2), row-major indices: all of them in
+// order when count = m^2 (no random numbers drawn), else `count` distinct cells chosen at random.
+void choose_strata(int count, int side, Pcg32& rng, std::vector<uint32_t>& out);
+
 // `count` points: an m x m grid (m = ceil(sqrt(count))) of strata, `count` of its cells chosen
 // without repetition (all of them, row by row, when count = m^2), one jittered point in each.
 void stratified_points(std::span<const Vec3> corners, int count, Pcg32& rng, std::vector<Vec3>& out,

@@ -191,85 +191,63 @@ int Visibility::trace(size_t i, size_t j, RowCost& cost) const {
   const size_t lo = std::min(i, j), hi = std::max(i, j);
   Pcg32 rng(hash_combine(hash_combine(seed_, lo), hi));
   thread_local FacingParts parts;
-  thread_local std::vector<Vec3> p, q;
   if (!facing_parts(lo, hi, parts)) return rays_;  // no unoccluded exchange to scale (F^u = 0)
   const std::vector<Vec3>& corners_lo = parts.lo;
   const std::vector<Vec3>& corners_hi = parts.hi;
   const uint32_t skip_lo = own_polygon_to_skip(lo, parts.hi_height);
   const uint32_t skip_hi = own_polygon_to_skip(hi, parts.lo_height);
+  // R strata of an m x m grid on each element (all of them, in order, when R = m^2, the default
+  // 16), stratum k of lo paired with stratum (a k + b) mod R of hi: a random affine permutation,
+  // a odd and prime to R (any odd a when R is a power of two). The jitter of ray k comes from one
+  // hash of (pair key, k): no serial generator, so the lanes vectorise.
   const int R = rays_;
-  const int m = int(std::lround(std::sqrt(double(R))));
-  int visible = 0;
+  const int m = int(std::ceil(std::sqrt(double(R))));
+  const bool every_stratum = m * m == R;  // stratum k is then index k: no lists to make
+  thread_local std::vector<uint32_t> all_lo, all_hi;
+  if (!every_stratum) {
+    choose_strata(R, m, rng, all_lo);
+    choose_strata(R, m, rng, all_hi);
+  }
+  const StratifiedSampler from(corners_lo, m), to(corners_hi, m);
+  const bool power_of_two = (R & (R - 1)) == 0;
+  uint32_t a = rng.next_u32() | 1u;
+  if (!power_of_two)
+    while (std::gcd(a % uint32_t(R), uint32_t(R)) != 1) a += 2;
+  const uint32_t b = rng.next_u32();
+  const uint64_t key = (uint64_t(rng.next_u32()) << 32) | rng.next_u32();
   thread_local SegmentPacket packet;
+  alignas(64) uint32_t strata_lo[16], strata_hi[16], bits_lo[16], bits_hi[16];
+  alignas(64) float qx[16], qy[16], qz[16];
   bool blocked[16];
-  auto add_segment = [&](int lane, const Vec3& from, const Vec3& to) {
-    const Vec3 d = to - from;
-    packet.ox[lane] = float(from.x), packet.oy[lane] = float(from.y),
-    packet.oz[lane] = float(from.z);
-    packet.dx[lane] = float(d.x), packet.dy[lane] = float(d.y), packet.dz[lane] = float(d.z);
-    // Parameters along the segment: skip its two ends, where it touches i and j, by 1e-4 of its
-    // length, and by at least 1e-6 m on segments shorter than 1 cm.
-    const double length2 = glm::dot(d, d);
-    const double eps = length2 >= 1e-4 ? 1e-4 : 1e-6 / std::sqrt(std::max(length2, 1e-24));
-    packet.t_near[lane] = float(eps);
-    packet.t_far[lane] = float(1.0 - eps);
-  };
-  auto flush = [&] {
+  int visible = 0;
+  for (int start = 0; start < R; start += 16) {
+    const int count = std::min(16, R - start);
+    packet.count = count;
+    for (int lane = 0; lane < count; ++lane) {
+      const uint32_t k = uint32_t(start + lane);
+      const uint32_t l = power_of_two ? (a * k + b) & uint32_t(R - 1)
+                                      : uint32_t((uint64_t(a) * k + b) % uint64_t(R));
+      strata_lo[lane] = every_stratum ? k : all_lo[k];
+      strata_hi[lane] = every_stratum ? l : all_hi[l];
+      const uint64_t r = mix64(key + k);
+      bits_lo[lane] = uint32_t(r);
+      bits_hi[lane] = uint32_t(r >> 32);
+    }
+    from.points(strata_lo, bits_lo, count, packet.ox, packet.oy, packet.oz);
+    to.points(strata_hi, bits_hi, count, qx, qy, qz);
+    for (int lane = 0; lane < count; ++lane) {
+      const float dx = qx[lane] - packet.ox[lane], dy = qy[lane] - packet.oy[lane],
+                  dz = qz[lane] - packet.oz[lane];
+      packet.dx[lane] = dx, packet.dy[lane] = dy, packet.dz[lane] = dz;
+      // Parameters along the segment: skip its two ends, where it touches i and j, by 1e-4 of
+      // its length, and by at least 1e-6 m on segments shorter than 1 cm.
+      const float length2 = dx * dx + dy * dy + dz * dz;
+      const float eps = length2 >= 1e-4f ? 1e-4f : 1e-6f / std::sqrt(std::max(length2, 1e-30f));
+      packet.t_near[lane] = eps;
+      packet.t_far[lane] = 1.0f - eps;
+    }
     embree_->occluded16(packet, blocked, skip_lo, skip_hi);
-    for (int k = 0; k < packet.count; ++k) visible += blocked[k] ? 0 : 1;
-  };
-  if (m * m == R) {
-    // R = m^2 (the default 16): every stratum of each element once, stratum k of lo paired with
-    // stratum (a k + b) mod R of hi when R is a power of two (a random affine permutation, odd a),
-    // with (a k + b) mod R otherwise when gcd(a, R) = 1 (a drawn odd and prime to R). The jitter
-    // of ray k comes from one hash of (pair key, k): no serial generator, so the lanes vectorise.
-    const StratifiedSampler from(corners_lo, m), to(corners_hi, m);
-    const bool power_of_two = (R & (R - 1)) == 0;
-    uint32_t a = rng.next_u32() | 1u;
-    if (!power_of_two)
-      while (std::gcd(a % uint32_t(R), uint32_t(R)) != 1) a += 2;
-    const uint32_t b = rng.next_u32();
-    const uint64_t key = (uint64_t(rng.next_u32()) << 32) | rng.next_u32();
-    alignas(64) uint32_t strata_lo[16], strata_hi[16], bits_lo[16], bits_hi[16];
-    alignas(64) float qx[16], qy[16], qz[16];
-    for (int start = 0; start < R; start += 16) {
-      const int count = std::min(16, R - start);
-      packet.count = count;
-      for (int lane = 0; lane < count; ++lane) {
-        const uint32_t k = uint32_t(start + lane);
-        strata_lo[lane] = k;
-        strata_hi[lane] = power_of_two ? (a * k + b) & uint32_t(R - 1)
-                                       : uint32_t((uint64_t(a) * k + b) % uint64_t(R));
-        const uint64_t r = mix64(key + k);
-        bits_lo[lane] = uint32_t(r);
-        bits_hi[lane] = uint32_t(r >> 32);
-      }
-      from.points(strata_lo, bits_lo, count, packet.ox, packet.oy, packet.oz);
-      to.points(strata_hi, bits_hi, count, qx, qy, qz);
-      for (int lane = 0; lane < count; ++lane) {
-        const float dx = qx[lane] - packet.ox[lane], dy = qy[lane] - packet.oy[lane],
-                    dz = qz[lane] - packet.oz[lane];
-        packet.dx[lane] = dx, packet.dy[lane] = dy, packet.dz[lane] = dz;
-        // Parameters along the segment: skip its two ends, where it touches i and j, by 1e-4 of
-        // its length, and by at least 1e-6 m on segments shorter than 1 cm.
-        const float length2 = dx * dx + dy * dy + dz * dz;
-        const float eps = length2 >= 1e-4f ? 1e-4f : 1e-6f / std::sqrt(std::max(length2, 1e-30f));
-        packet.t_near[lane] = eps;
-        packet.t_far[lane] = 1.0f - eps;
-      }
-      flush();
-    }
-  } else {
-    // Any other count: R of the strata of each element, the second list shuffled.
-    stratified_points(corners_lo, R, rng, p);
-    stratified_points(corners_hi, R, rng, q);
-    for (int k = R - 1; k > 0; --k) std::swap(q[size_t(k)], q[rng.next_below(uint32_t(k + 1))]);
-    for (int start = 0; start < R; start += 16) {
-      packet.count = std::min(16, R - start);
-      for (int lane = 0; lane < packet.count; ++lane)
-        add_segment(lane, p[size_t(start + lane)], q[size_t(start + lane)]);
-      flush();
-    }
+    for (int lane = 0; lane < count; ++lane) visible += blocked[lane] ? 0 : 1;
   }
   cost.rays += uint64_t(R);
   return visible;

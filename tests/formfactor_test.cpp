@@ -313,8 +313,9 @@ TEST(RaycastFormFactors, CornellSubdiv6IsReciprocalToTheQuadratureTolerance) {
   //   Row sums are not tested against 1 here: the visibility estimate, not the quadrature,
   // decides whether they pass. V is the plain share of unblocked rays, so (i) 16 rays miss small
   // occluded parts (a block standing on part of an element), lifting the row of the tall block's
-  // back face, whose true sum is 1, to 1.0034; (ii) it is biased where visibility correlates with
-  // the kernel (floor element 31 beside the back wall: 1.0016 with 16 rays, 1.0021 with 1024,
+  // back face, whose true sum is 1, to 1.0034 with the first sampler's random numbers (the
+  // largest row is 1.0019 with the current ones); (ii) it is biased where visibility correlates
+  // with the kernel (floor element 31 beside the back wall: 1.0016 with 16 rays, 1.0021 with 1024,
   // 0.9997 by Monte Carlo), an error that more rays do not remove.
   Scene scene = make_builtin_scene("cornell");
   validate_scene(scene);
