@@ -41,8 +41,8 @@ Visibility::Visibility(const Scene& scene, const Mesh& mesh, int rays, uint64_t 
 // point c_P, with d_P = max over P's vertices v of |n_P.(v - c_P)| and R_P = max |v - c_P|:
 //   |n_e.(v - c_e)| <= |n_P.(v - c_e)| + |n_e - n_P| |v - c_e| <= 2 d_P + 2 R_P |n_e - n_P|
 // (c_e is a convex combination of P's vertices, so within d_P of P's plane). For a planar polygon
-// this is rounding; for one that is off its plane (the Cornell box's red wall, by 0.8 mm) it is
-// about its deviation. float_error_ covers the rounding of vertices and ray origins to float,
+// this is rounding; for one left unsplit a little off its plane (validate.h) it is about its
+// deviation. float_error_ covers the rounding of vertices and ray origins to float,
 // 8 ulps of the largest coordinate.
 void Visibility::compute_own_polygon_margins() {
   off_plane_.assign(mesh_.size(), 0.0);
