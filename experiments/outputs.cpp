@@ -119,7 +119,10 @@ void write_run_result(JsonWriter& json, const Budget& budget, const RunResult& r
   json.field("steps", static_cast<long long>(r.steps));
   json.field("ff_rows", static_cast<unsigned long long>(r.rows));
   json.field("rays", static_cast<unsigned long long>(r.rays));
+  json.field("pair_evals", static_cast<unsigned long long>(r.pair_evals));
   json.field("seconds", r.seconds);
+  json.field("reference_kind", r.reference_kind);
+  json.field("rms_rel_reflected", r.final_reflected.rms_rel);
   json.field("rms_rel", r.final_errors.rms_rel);
   json.field("p_mean", r.final_errors.p_mean);
   json.field("p_max", r.final_errors.p_max);

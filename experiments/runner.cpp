@@ -54,7 +54,7 @@ class Evaluator {
 
   // Writes the checkpoint rows; returns the certified relative bound (NaN if unavailable).
   double evaluate(const Solver& solver, long long step, unsigned long long rows, double seconds,
-                  unsigned long long rays, RunResult& result) {
+                  unsigned long long rays, unsigned long long pair_evals, RunResult& result) {
     const Radiosity& B = solver.solution();
     if (!all_finite(B))
       throw NumericalError(labels_.run_id + ": non-finite radiosity at step " +
@@ -94,11 +94,18 @@ class Evaluator {
       row.ff_rows = rows;
       row.seconds = seconds;
       row.rays = rays;
+      row.pair_evals = pair_evals;
+      row.reference_kind = problem_.reference ? problem_.reference->kind : "none";
+      row.solver_elements =
+          solver.solver_elements() > 0 ? solver.solver_elements() : problem_.system->size();
       const double nan = std::nan("");
       ErrorMetrics e, d;
+      ReflectedRms reflected;
       if (problem_.reference) {
         e = compare(B, problem_.reference->B, area, field);
         d = compare(display, problem_.reference->B, area, field);
+        reflected =
+            compare_reflected(B, problem_.reference->B, problem_.system->emission(), area, field);
       }
       auto or_nan = [&](double v) { return problem_.reference ? v : nan; };
       row.rms = or_nan(e.rms);
@@ -114,6 +121,8 @@ class Evaluator {
       row.p_mean_display = or_nan(d.p_mean);
       row.p_rms_display = or_nan(d.p_rms);
       row.p_max_display = or_nan(d.p_max);
+      row.rms_reflected = or_nan(reflected.rms);
+      row.rms_rel_reflected = or_nan(reflected.rms_rel);
       if (!residual.empty()) {
         row.residual_inf = field == kMeanOfChannels ? worst_residual : residual[size_t(field)];
         row.bound_inf = row.residual_inf * inverse_norm;
@@ -126,6 +135,7 @@ class Evaluator {
       if (field == kMeanOfChannels) {
         result.final_errors = e;
         result.final_display_errors = d;
+        result.final_reflected = reflected;
       }
     }
     const double bound = residual.empty() ? std::nan("") : worst_residual * inverse_norm;
@@ -177,11 +187,12 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
   long long step = 0;
   long long next_checkpoint = schedule.next_after(0);
   auto checkpoint = [&]() {
-    const double bound =
-        evaluator.evaluate(solver, step, system.rows_used(), seconds, system.rays_used(), result);
+    const double bound = evaluator.evaluate(solver, step, system.rows_used(), seconds,
+                                            system.rays_used(), system.pair_evaluations(), result);
     CheckpointRecord record;
     record.step = step;
     record.rows = system.rows_used();
+    record.pair_evals = system.pair_evaluations();
     record.seconds = seconds;
     const double nan = std::nan("");
     const bool measured = problem.reference.has_value();
@@ -189,6 +200,7 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
     record.p_mean = measured ? result.final_errors.p_mean : nan;
     record.rms_rel_display = measured ? result.final_display_errors.rms_rel : nan;
     record.p_mean_display = measured ? result.final_display_errors.p_mean : nan;
+    record.rms_rel_reflected = measured ? result.final_reflected.rms_rel : nan;
     record.bound_relative = bound;
     result.history.push_back(record);
     if (hook) hook(step, solver);
@@ -251,6 +263,8 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
   result.steps = step;
   result.rows = system.rows_used();
   result.rays = system.rays_used();
+  result.pair_evals = system.pair_evaluations();
+  result.reference_kind = problem.reference ? problem.reference->kind : "none";
   result.seconds = seconds;
   result.final_bound_relative = bound;
   if (trace) trace->flush();

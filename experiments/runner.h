@@ -44,20 +44,24 @@ struct RunLabels {
 struct CheckpointRecord {
   long long step = 0;
   unsigned long long rows = 0;
+  unsigned long long pair_evals = 0;
   double seconds = 0.0;
   double rms_rel = 0.0, p_mean = 0.0, rms_rel_display = 0.0, p_mean_display = 0.0;
+  double rms_rel_reflected = 0.0;
   double bound_relative = 0.0;
 };
 
 struct RunResult {
   std::vector<CheckpointRecord> history;
   long long steps = 0;
-  unsigned long long rows = 0, rays = 0;
+  unsigned long long rows = 0, rays = 0, pair_evals = 0;
   double seconds = 0.0;
   std::string stop_reason;
-  ErrorMetrics final_errors;          // on the mean of the channels, solution()
-  ErrorMetrics final_display_errors;  // on the mean of the channels, display()
-  double final_bound_relative = 0.0;  // certified ||B-B*||_inf / max B*, if a matrix exists
+  std::string reference_kind = "none";  // Reference::kind, or "none" without a reference
+  ErrorMetrics final_errors;            // on the mean of the channels, solution()
+  ErrorMetrics final_display_errors;    // on the mean of the channels, display()
+  ReflectedRms final_reflected;         // on the mean of the channels, solution() - E
+  double final_bound_relative = 0.0;    // certified ||B-B*||_inf / max B*, if a matrix exists
 };
 
 // Called at every checkpoint after the metrics are written (e.g. to save images).

@@ -51,7 +51,19 @@ const std::vector<std::string>& summary_columns() {
       "fit_sweep_points",
       "fit_rate_per_sweep_sigma",
       "spectral_radius_lower",
-      "error"};
+      "error",
+      "pair_evals",
+      "reference_kind",
+      "rms_rel_reflected",
+      "rows_to_rms_rel_reflected_1e-1",
+      "seconds_to_rms_rel_reflected_1e-1",
+      "pair_evals_to_rms_rel_reflected_1e-1",
+      "rows_to_rms_rel_reflected_1e-2",
+      "seconds_to_rms_rel_reflected_1e-2",
+      "pair_evals_to_rms_rel_reflected_1e-2",
+      "rows_to_rms_rel_reflected_1e-3",
+      "seconds_to_rms_rel_reflected_1e-3",
+      "pair_evals_to_rms_rel_reflected_1e-3"};
   // clang-format on
   return columns;
 }
@@ -68,14 +80,37 @@ const std::vector<std::string>& summary_time_columns() {
       "fit_seconds_points",
       "fit_seconds_per_decade_sigma",
       "fit_seconds_to_rms_rel_1e-6_sigma",
+      "seconds_to_rms_rel_reflected_1e-1",
+      "seconds_to_rms_rel_reflected_1e-2",
+      "seconds_to_rms_rel_reflected_1e-3",
       "stop_reason"};  // a time budget makes the stop reason machine-dependent too
   return columns;
 }
 
-double first_reach(const std::vector<CheckpointRecord>& history, double threshold, bool by_rows,
-                   bool p_mean) {
-  auto value = [&](const CheckpointRecord& r) { return p_mean ? r.p_mean : r.rms_rel; };
-  auto x = [&](const CheckpointRecord& r) { return by_rows ? double(r.rows) : r.seconds; };
+double first_reach(const std::vector<CheckpointRecord>& history, double threshold, ReachAxis axis,
+                   ReachMetric metric) {
+  auto value = [&](const CheckpointRecord& r) {
+    switch (metric) {
+      case ReachMetric::kPMean:
+        return r.p_mean;
+      case ReachMetric::kRmsRelReflected:
+        return r.rms_rel_reflected;
+      case ReachMetric::kRmsRel:
+        break;
+    }
+    return r.rms_rel;
+  };
+  auto x = [&](const CheckpointRecord& r) {
+    switch (axis) {
+      case ReachAxis::kSeconds:
+        return r.seconds;
+      case ReachAxis::kPairEvals:
+        return double(r.pair_evals);
+      case ReachAxis::kRows:
+        break;
+    }
+    return double(r.rows);
+  };
   for (size_t k = 0; k < history.size(); ++k) {
     const double v = value(history[k]);
     if (!(v <= threshold)) continue;
@@ -97,12 +132,13 @@ void write_summary_row(CsvWriter& csv, const SummaryInputs& in, const RunResult&
   csv.add(r.final_errors.rms_rel).add(r.final_errors.p_mean).add(r.final_errors.p_max);
   csv.add(r.final_display_errors.rms_rel).add(r.final_display_errors.p_mean);
   csv.add(r.final_bound_relative);
+  using enum ReachAxis;
   for (double threshold : {1e-1, 1e-2, 1e-3}) {
-    csv.add(first_reach(r.history, threshold, true, false));
-    csv.add(first_reach(r.history, threshold, false, false));
+    csv.add(first_reach(r.history, threshold, kRows, ReachMetric::kRmsRel));
+    csv.add(first_reach(r.history, threshold, kSeconds, ReachMetric::kRmsRel));
   }
-  csv.add(first_reach(r.history, 1e-2, true, true));
-  csv.add(first_reach(r.history, 1e-2, false, true));
+  csv.add(first_reach(r.history, 1e-2, kRows, ReachMetric::kPMean));
+  csv.add(first_reach(r.history, 1e-2, kSeconds, ReachMetric::kPMean));
 
   std::vector<double> rows, seconds, error;
   for (const CheckpointRecord& c : r.history) {
@@ -148,6 +184,10 @@ void write_summary_row(CsvWriter& csv, const SummaryInputs& in, const RunResult&
   csv.add(by_sweeps.valid ? by_sweeps.rate * by_sweeps.log_rate_sigma : nan);
   csv.add(in.spectral_radius_lower);
   csv.add(std::string());  // error: none
+  csv.add(r.pair_evals).add(r.reference_kind).add(r.final_reflected.rms_rel);
+  for (double threshold : {1e-1, 1e-2, 1e-3})
+    for (ReachAxis axis : {kRows, kSeconds, kPairEvals})
+      csv.add(first_reach(r.history, threshold, axis, ReachMetric::kRmsRelReflected));
   csv.end_row();
 }
 
@@ -162,9 +202,13 @@ void write_failed_summary_row(CsvWriter& csv, const SummaryInputs& in,
     csv.add(nan).add(nan);
   csv.add(nan).add(nan).add(nan);  // steps, ff_rows, seconds: see the trace up to the failure
   csv.add(stop_reason);
-  // The 11 columns above and `error` below; everything between is empty.
-  for (size_t k = 11; k + 1 < csv.columns().size(); ++k) csv.add(nan);
-  csv.add(error);
+  // The 11 columns above and `error`; everything else is empty.
+  for (size_t k = 11; k < csv.columns().size(); ++k) {
+    if (csv.columns()[k] == "error")
+      csv.add(error);
+    else
+      csv.add(nan);
+  }
   csv.end_row();
 }
 

@@ -27,10 +27,14 @@ struct SummaryInputs {
   double spectral_radius_lower = std::nan("");
 };
 
+// What first_reach measures, and against which x.
+enum class ReachMetric { kRmsRel, kPMean, kRmsRelReflected };
+enum class ReachAxis { kRows, kSeconds, kPairEvals };
+
 // The x at which a decreasing trace first reaches `threshold`, interpolated linearly in
 // log(error) between the bracketing checkpoints (NaN if never reached).
-double first_reach(const std::vector<CheckpointRecord>& history, double threshold, bool by_rows,
-                   bool p_mean);
+double first_reach(const std::vector<CheckpointRecord>& history, double threshold, ReachAxis axis,
+                   ReachMetric metric);
 
 void write_summary_row(CsvWriter& csv, const SummaryInputs& in, const RunResult& result);
 

@@ -24,6 +24,11 @@ struct TraceRow {
   double rms_display, rms_rel_display, p_mean_display, p_rms_display, p_max_display;
   double residual_inf, bound_inf, unshot_power, total_power;
   unsigned long long rays = 0;
+  // Appended columns (docs/outputs.md):
+  unsigned long long pair_evals = 0;  // element-pair form factors evaluated (a flat row counts n)
+  double rms_reflected, rms_rel_reflected;  // eq. 14 on B - E (metrics/error_metrics.h)
+  std::string reference_kind;               // "certified", an uncertified stand-in, or "none"
+  unsigned long long solver_elements = 0;   // unknowns the solver holds (a change = new mesh)
 };
 
 class TraceWriter {

@@ -49,6 +49,25 @@ ErrorMetrics compare(const Radiosity& estimate, const Radiosity& reference,
   return m;
 }
 
+ReflectedRms compare_reflected(const Radiosity& estimate, const Radiosity& reference,
+                               const Radiosity& emission, std::span<const double> area,
+                               int channel) {
+  ReflectedRms m;
+  double total_area = 0.0, squared = 0.0, ref_squared = 0.0;
+  for (size_t i = 0; i < reference.size(); ++i) {
+    const double e = field_value(emission, i, channel);
+    const double b = field_value(estimate, i, channel) - e;
+    const double r = field_value(reference, i, channel) - e;
+    total_area += area[i];
+    squared += area[i] * (b - r) * (b - r);
+    ref_squared += area[i] * r * r;
+  }
+  m.rms = std::sqrt(squared / total_area);
+  const double ref_rms = std::sqrt(ref_squared / total_area);
+  m.rms_rel = ref_rms > 0 ? m.rms / ref_rms : m.rms;
+  return m;
+}
+
 void relative_errors(const Radiosity& estimate, const Radiosity& reference, int channel,
                      std::span<double> out) {
   double max_ref = 0.0;

@@ -39,6 +39,17 @@ ErrorMetrics compare(const Radiosity& estimate, const Radiosity& reference,
 // The value of element i in the chosen field (a channel, or the mean of channels).
 double field_value(const Radiosity& field, size_t i, int channel);
 
+// Cohen's eq. 14 on the reflected part of the field, B - E against B* - E: the emitters, which
+// every solver gets right from step 0, drop out. rms_rel divides by the area-weighted RMS of
+// B* - E (0 when nothing is reflected: then rms itself).
+struct ReflectedRms {
+  double rms = 0.0;
+  double rms_rel = 0.0;
+};
+ReflectedRms compare_reflected(const Radiosity& estimate, const Radiosity& reference,
+                               const Radiosity& emission, std::span<const double> area,
+                               int channel);
+
 // Per-element signed relative error (B - B*) / B* of the chosen field; 0 where B* is below the
 // p-error threshold. For error images.
 void relative_errors(const Radiosity& estimate, const Radiosity& reference, int channel,

@@ -46,6 +46,10 @@ struct Reference {
   double q = 0.0;                            // max_i rho_i sum_j F_ij (worst channel)
   double spectral_radius_upper = 0.0;  // Collatz–Wielandt upper bound on rho(J) (worst channel)
   std::string method;                  // "dense LU" or "GMRES(30)"
+  // What the errors are measured against, written in trace.csv and run.json: "certified" (this
+  // file's certificate holds), or the name of an uncertified stand-in for scenes too large for
+  // the certified solve (never presented as certified).
+  std::string kind = "certified";
   int refinements = 0;
   double seconds = 0.0;
 

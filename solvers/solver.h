@@ -45,6 +45,10 @@ class Solver {
   virtual const Radiosity* unshot() const { return nullptr; }
   // Per-element shot coverage for solvers that track it (interleaved); null otherwise.
   virtual const ShotCoverage* shot_coverage() const { return nullptr; }
+  // How many unknowns the solver itself holds when that is not the evaluation mesh (hierarchy
+  // leaves, adaptively split elements); 0 means "the mesh's elements". trace.csv writes it as
+  // solver_elements, so a change in it marks a change of the solver's mesh.
+  virtual size_t solver_elements() const { return 0; }
 };
 
 }  // namespace radlab

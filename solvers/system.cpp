@@ -5,12 +5,12 @@
 namespace radlab {
 
 System::System(const Scene& scene, const Mesh& mesh, const FormFactorMatrix& matrix)
-    : mesh_(mesh), matrix_(&matrix) {
+    : scene_(scene), mesh_(mesh), matrix_(&matrix) {
   init(scene);
 }
 
 System::System(const Scene& scene, const Mesh& mesh, const FormFactorMethod& method)
-    : mesh_(mesh), method_(&method) {
+    : scene_(scene), mesh_(mesh), method_(&method) {
   init(scene);
 }
 

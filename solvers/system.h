@@ -8,6 +8,11 @@
 // computed on the fly charge their time to the step that asked (the runner's clock is running),
 // so "form-factor rows" on every plot axis is honest whichever way the rows come.
 //
+// The work column common to every solver is "element-pair form factors evaluated"
+// (pair_evaluations): a flat row counts n (it holds n pair form factors), and a solver that works
+// on other pairs (hierarchical links, patch-to-element rows) charges what it evaluates with
+// charge_pair_evaluations(), refinement estimates included.
+//
 // A System is immutable during a run except for its counters.
 #pragma once
 
@@ -32,6 +37,7 @@ class System {
 
   size_t size() const { return area_.size(); }
   int channels() const { return reflectance_.channels(); }
+  const Scene& scene() const { return scene_; }
   const Mesh& mesh() const { return mesh_; }
   std::span<const double> area() const { return area_; }
   std::span<const double> inverse_area() const { return inverse_area_; }
@@ -45,6 +51,7 @@ class System {
   template <class Fn>
   void with_row(size_t i, Fn&& fn) const {
     rows_used_.fetch_add(1, std::memory_order_relaxed);
+    pair_evaluations_.fetch_add(size(), std::memory_order_relaxed);
     if (matrix_) {
       matrix_->visit_row(i, fn);
       return;
@@ -62,14 +69,23 @@ class System {
 
   uint64_t rows_used() const { return rows_used_.load(); }
   uint64_t rays_used() const { return rays_used_.load(); }
+  uint64_t pair_evaluations() const { return pair_evaluations_.load(); }
+  // For solvers that evaluate form factors themselves (not through with_row): charges the work
+  // to the same counters, so every solver's trace has the same x-axes.
+  void charge_pair_evaluations(uint64_t pairs) const {
+    pair_evaluations_.fetch_add(pairs, std::memory_order_relaxed);
+  }
+  void charge_rays(uint64_t rays) const { rays_used_.fetch_add(rays, std::memory_order_relaxed); }
   void reset_counters() const {
     rows_used_ = 0;
     rays_used_ = 0;
+    pair_evaluations_ = 0;
   }
 
  private:
   void init(const Scene& scene);
 
+  const Scene& scene_;
   const Mesh& mesh_;
   const FormFactorMatrix* matrix_ = nullptr;
   const FormFactorMethod* method_ = nullptr;
@@ -79,6 +95,7 @@ class System {
   Radiosity reflectance_, emission_;
   mutable std::atomic<uint64_t> rows_used_{0};
   mutable std::atomic<uint64_t> rays_used_{0};
+  mutable std::atomic<uint64_t> pair_evaluations_{0};
 };
 
 }  // namespace radlab

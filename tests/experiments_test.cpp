@@ -588,9 +588,9 @@ TEST(Summary, FirstReachInterpolatesInLogError) {
   history[0].rows = 0, history[0].rms_rel = 1.0;
   history[1].rows = 100, history[1].rms_rel = 1e-1;
   history[2].rows = 200, history[2].rms_rel = 1e-3;
-  EXPECT_DOUBLE_EQ(first_reach(history, 1e-1, true, false), 100.0);
-  EXPECT_NEAR(first_reach(history, 1e-2, true, false), 150.0, 1e-9);
-  EXPECT_TRUE(std::isnan(first_reach(history, 1e-4, true, false)));
+  EXPECT_DOUBLE_EQ(first_reach(history, 1e-1, ReachAxis::kRows, ReachMetric::kRmsRel), 100.0);
+  EXPECT_NEAR(first_reach(history, 1e-2, ReachAxis::kRows, ReachMetric::kRmsRel), 150.0, 1e-9);
+  EXPECT_TRUE(std::isnan(first_reach(history, 1e-4, ReachAxis::kRows, ReachMetric::kRmsRel)));
 }
 
 }  // namespace
