@@ -17,6 +17,11 @@ void add_scene_options(CLI::App& command, SceneOptions& o) {
       .add_option("--element-size", o.element_size,
                   "split polygons so element edges are at most H metres")
       ->excludes(subdiv);
+  command.add_option("--patches", o.patches,
+                     "two levels (Cohen 1988 §3.4): elements (default, one level), polygons (a "
+                     "patch per input polygon) or size (patches of edge --patch-size)");
+  command.add_option("--patch-size", o.patch_size,
+                     "patch edge length in metres, with --patches size");
 }
 
 void add_form_factor_options(CLI::App& command, FormFactorOptions& o, bool with_mode) {
@@ -42,6 +47,9 @@ ProblemSpec make_spec(const SceneOptions& scene, const FormFactorOptions& ff) {
     throw UsageError("--subdiv must be >= 1, got " + std::to_string(scene.subdiv));
   if (scene.element_size < 0)
     throw UsageError("--element-size must be > 0, got " + std::to_string(scene.element_size));
+  spec.patches.from = scene.patches;
+  spec.patches.size = scene.patch_size;
+  spec.patches.validate();
   spec.ff_method = ff.method;
   spec.ff_set = ff.set;
   spec.precision = ff.precision == "double" ? Precision::kDouble : Precision::kFloat;

@@ -14,6 +14,8 @@ struct SceneOptions {
   std::string scene;
   int subdiv = 1;
   double element_size = 0.0;
+  std::string patches = "elements";  // --patches: two levels (solvers/patches.h)
+  double patch_size = 0.0;           // --patch-size, with --patches size
 };
 
 struct FormFactorOptions {

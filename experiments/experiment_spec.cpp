@@ -89,7 +89,7 @@ ExperimentSpec read_experiment(const std::string& path) {
   Reader r(path);
   r.only(root,
          {"name", "description", "scenes", "subdiv", "element_size", "solvers", "seeds",
-          "form_factors", "budget", "checkpoints", "parameters", "images", "coverage"},
+          "form_factors", "patches", "budget", "checkpoints", "parameters", "images", "coverage"},
          "the experiment");
   ExperimentSpec spec;
   spec.path = path;
@@ -165,6 +165,19 @@ ExperimentSpec read_experiment(const std::string& path) {
     r.fail(*root["form_factors"].node(), "'form_factors' must be a table");
   }
 
+  if (const toml::table* pt = root["patches"].as_table()) {
+    r.only(*pt, {"from", "size"}, "[patches]");
+    if (auto n = (*pt)["from"]) spec.patches.from = r.string(*n.node(), "patches.from");
+    if (auto n = (*pt)["size"]) spec.patches.size = r.number(*n.node(), "patches.size");
+    try {
+      spec.patches.validate();
+    } catch (const UsageError& e) {
+      r.fail(*root["patches"].node(), e.what());
+    }
+  } else if (root["patches"]) {
+    r.fail(*root["patches"].node(), "'patches' must be a table");
+  }
+
   if (const toml::table* b = root["budget"].as_table()) {
     r.only(*b, {"steps", "rows", "seconds", "tol"}, "[budget]");
     // A budget that cannot mean anything is an error, never a silent default (or a hang: a NaN
@@ -224,7 +237,13 @@ ExperimentSpec read_experiment(const std::string& path) {
   }
 
   if (const toml::table* im = root["images"].as_table()) {
-    r.only(*im, {"steps", "width", "height", "error_maps"}, "[images]");
+    r.only(*im, {"steps", "width", "height", "error_maps", "shading"}, "[images]");
+    if (auto n = (*im)["shading"]) {
+      const std::string shading = r.string(*n.node(), "images.shading");
+      if (shading != "gouraud" && shading != "flat")
+        r.fail(*n.node(), "images.shading must be 'gouraud' or 'flat'");
+      spec.images.smooth = shading == "gouraud";
+    }
     if (auto n = (*im)["steps"])
       spec.images.steps =
           r.list(*n.node(), [&](const toml::node& v) { return r.integer(v, "images.steps"); });
@@ -293,6 +312,7 @@ SweepPlan plan_sweep(const ExperimentSpec& spec) {
         if (seed >= 0) problem.spec.ff_set.push_back("seed=" + std::to_string(seed));
         problem.spec.precision = spec.precision;
         problem.spec.row_mode = spec.row_mode;
+        problem.spec.patches = spec.patches;
         problem.label = "scene:" + scene_label(scene);
         if (spec.meshes.size() > 1)
           problem.label += mesh.element_size > 0

@@ -25,6 +25,8 @@ struct ImageSpec {
   int width = 256;
   int height = 256;
   bool error_maps = true;  // Cohen pseudo-colour and signed p-error maps beside each image
+  bool smooth = true;      // radiosity images Gouraud-shaded (shading = "gouraud") or flat
+                           // (shading = "flat": each element its own value); error maps are flat
 };
 
 struct ExperimentSpec {
@@ -39,6 +41,7 @@ struct ExperimentSpec {
   std::vector<long long> seeds;  // form-factor seeds; empty: the method's default
   Precision precision = Precision::kFloat;
   RowMode row_mode = RowMode::kCached;
+  PatchOptions patches;  // [patches]: two levels (solvers/patches.h)
   Budget budget;
   CheckpointSchedule schedule;
   ImageSpec images;

@@ -16,7 +16,7 @@ ImageMaker::ImageMaker(const Problem& problem, const ImageSpec& spec)
   camera_ = problem.scene().camera ? *problem.scene().camera : default_camera(problem.mesh);
   if (problem.reference) {
     Image reference = render_radiosity(problem.mesh, *embree_, problem.reference->B, camera_,
-                                       spec.width, spec.height);
+                                       spec.width, spec.height, spec.smooth);
     exposure_ = auto_exposure(reference);
   }
 }
@@ -28,8 +28,8 @@ void ImageMaker::save(const Solver& solver, long long step, const std::string& s
   std::snprintf(suffix, sizeof suffix, "_step%06lld", step);
   const std::string base = stem + suffix;
   const Radiosity display = solver.display();
-  Image image =
-      render_radiosity(problem_.mesh, *embree_, display, camera_, spec_.width, spec_.height);
+  Image image = render_radiosity(problem_.mesh, *embree_, display, camera_, spec_.width,
+                                 spec_.height, spec_.smooth);
   write_exr(base + ".exr", image);
   write_png(base + ".png", image, exposure_);
   if (!spec_.error_maps || !problem_.reference) return;

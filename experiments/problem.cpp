@@ -87,7 +87,29 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
     }
   }
 
-  if (spec.row_mode == RowMode::kCached)
+  // Two levels (solvers/patches.h): patch rows and K from the (symmetrised) element matrix; K
+  // then stands in for it everywhere (gathering rows, residuals, the reference and its key).
+  spec.patches.validate();
+  const bool two_level = spec.patches.two_level();
+  if (two_level) {
+    if (spec.row_mode != RowMode::kCached)
+      throw UsageError(
+          "patches: the two-level system is formed from the dense matrix; use "
+          "--ff-mode cached");
+    problem->patches = make_patches(problem->scene(), problem->mesh, spec.patches);
+    problem->patch_rows = patch_rows(problem->matrix, problem->patches);
+    problem->matrix = two_level_matrix(problem->matrix, problem->patches);
+    key.text += ";patches=" + spec.patches.canonical();
+    log::info("two levels: " + std::to_string(problem->patches.size()) + " patches (" +
+              spec.patches.canonical() + ") shoot to " + std::to_string(n) +
+              " elements; largest patch " + std::to_string(problem->patches.largest()) +
+              " elements");
+  }
+
+  if (two_level)
+    problem->system = std::make_unique<System>(problem->scene(), problem->mesh, problem->matrix,
+                                               problem->patches, problem->patch_rows);
+  else if (spec.row_mode == RowMode::kCached)
     problem->system = std::make_unique<System>(problem->scene(), problem->mesh, problem->matrix);
   else
     problem->system = std::make_unique<System>(problem->scene(), problem->mesh, *problem->method);

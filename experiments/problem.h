@@ -14,6 +14,7 @@
 #include "formfactor/matrix.h"
 #include "scene/mesh.h"
 #include "scene/scene_loader.h"
+#include "solvers/patches.h"
 #include "solvers/reference.h"
 #include "solvers/system.h"
 
@@ -32,6 +33,7 @@ struct ProblemSpec {
   bool require_emitter = true;
   bool use_cache = true;  // dense matrices from/to the on-disk cache (formfactor/matrix_cache.h)
   std::string cache_dir;  // the cache folder; empty: $RADLAB_CACHE_DIR or ~/.cache/radlab
+  PatchOptions patches;   // two levels (solvers/patches.h); default: one patch per element
 };
 
 struct Problem {
@@ -40,7 +42,10 @@ struct Problem {
   Mesh mesh;
   std::unique_ptr<FormFactorMethod> method;
   std::string ff_parameters;  // resolved, canonical
-  FormFactorMatrix matrix;    // empty (size 0) for streaming runs without a reference
+  FormFactorMatrix matrix;    // empty (size 0) for streaming runs without a reference; with
+                              // patches, the two-level K (the element matrix is dropped)
+  Patches patches;            // two levels only: the patches and their rows
+  RowMatrix patch_rows;
   BuildReport build;
   MatrixDiagnostics diagnostics;      // of the matrix the solvers use (symmetrised if asked)
   MatrixDiagnostics raw_diagnostics;  // of the matrix as the method computed it

@@ -169,6 +169,7 @@ void write_problem_entry(JsonWriter& json, const ProblemEntry& e) {
   json.field("precision", spec.precision == Precision::kFloat ? "float" : "double");
   json.field("rows", spec.row_mode == RowMode::kCached ? "cached" : "on-the-fly");
   json.end_object();
+  json.field("patches", spec.patches.canonical());
   if (!e.error.empty()) json.field("error", e.error);
   json.end_object();
 }

@@ -144,10 +144,10 @@ Image render_field(const Mesh& mesh, const EmbreeScene& embree, std::span<const 
 }
 
 Image render_radiosity(const Mesh& mesh, const EmbreeScene& embree, const Radiosity& values,
-                       const Camera& camera, int width, int height) {
+                       const Camera& camera, int width, int height, bool smooth) {
   std::vector<glm::dvec3> rgb(values.size());
   for (size_t i = 0; i < values.size(); ++i) rgb[i] = values.rgb(i);
-  return render_field(mesh, embree, rgb, camera, width, height, true);
+  return render_field(mesh, embree, rgb, camera, width, height, smooth);
 }
 
 }  // namespace radlab

@@ -44,8 +44,9 @@ Image render_field(const Mesh& mesh, const EmbreeScene& embree,
                    std::span<const glm::dvec3> element_values, const Camera& camera, int width,
                    int height, bool smooth);
 
-// Smooth image of a radiosity solution (a grey solution renders grey).
+// Image of a radiosity solution (a grey solution renders grey): Gouraud-shaded from vertex
+// radiosities (smooth, the default: Cohen et al. 1988's display) or flat per element.
 Image render_radiosity(const Mesh& mesh, const EmbreeScene& embree, const Radiosity& values,
-                       const Camera& camera, int width, int height);
+                       const Camera& camera, int width, int height, bool smooth = true);
 
 }  // namespace radlab

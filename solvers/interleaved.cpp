@@ -87,6 +87,10 @@ void InterleavedOptions::validate() const {
 }
 
 void InterleavedSolver::init(const System& system) {
+  if (system.two_level())
+    throw UsageError(
+        "interleaved: Wu & Wang's coverage is defined for element shooters; run it "
+        "without patches");
   core_.init(system);
   const size_t n = system.size();
   advance_ = Radiosity(system.channels(), n);

@@ -14,6 +14,8 @@
 //   - regather (Gortler, Cohen & Slusallek 1994): o_ci = rho_ci sum_j F_ij dB_cj, what i would
 //     gather now from everyone's unshot radiosity. It needs row i before the shot; it is the same
 //     row, so one row per step.
+//   On a two-level System (solvers/patches.h) the shooters are patches: dB_i, rho_i and A_i are
+//   the patch's area-weighted means and area, and regather reads the patch row P_i.
 //   clamp=true counts only positive dB_cj in either estimate (so o_i >= 0): the overshoot never
 //   takes back energy that was over-shot elsewhere.
 //   Selection: the largest |A_i (dB_i + o_i)| summed over channels, the power the shot would
@@ -68,7 +70,7 @@ class OvershootingSolver final : public Solver {
   void init(const System& system) override {
     core_.init(system);
     interreflection_.clear();
-    overshoot_ = Radiosity(system.channels(), system.size());
+    overshoot_ = Radiosity(system.channels(), system.shooters().size());
     // Regather: the core's priorities are A_j sum_c |dB_cj + o_cj|, so each shot returns the
     // next shooter (all o = 0 here, the same bits as A_j sum_c |dB_cj|).
     if (regather_) core_.set_priority_offset(&overshoot_);
@@ -87,7 +89,6 @@ class OvershootingSolver final : public Solver {
 
   StepInfo step() override {
     const int channels = core_.channels();
-    const Radiosity& rho = core_.system().reflectance();
     double s[3] = {0.0, 0.0, 0.0};
     if (!regather_) {
       // Select by the power the shot would carry, A_j sum_c |dB_cj + rho_cj Ambient_c|: by
@@ -99,11 +100,12 @@ class OvershootingSolver final : public Solver {
       const std::vector<double> ambient =
           ambient_radiosity(interreflection_, power, core_.system().total_area());
       best_ = {};
-      for (size_t j = 0; j < core_.size(); ++j) {
+      for (size_t j = 0; j < core_.shooters(); ++j) {
         double p = 0.0;
         for (int c = 0; c < channels; ++c)
-          p += std::fabs(core_.unshot().at(c, j) + rho.at(c, j) * ambient[size_t(c)]);
-        p *= core_.system().area()[j];
+          p += std::fabs(core_.shooter_unshot(c, j) +
+                         core_.shooter_reflectance(c, j) * ambient[size_t(c)]);
+        p *= core_.shooter_area(j);
         if (p > best_.value) best_ = {p, j};
       }
       if (!(best_.value > 0.0)) {
@@ -112,8 +114,8 @@ class OvershootingSolver final : public Solver {
       }
       const size_t i = best_.index;
       for (int c = 0; c < channels; ++c)
-        s[c] = core_.unshot().at(c, i) + rho.at(c, i) * ambient[size_t(c)];
-      core_.system().with_row(i, [&](const auto* F) { core_.shoot(F, i, s, false); });
+        s[c] = core_.shooter_unshot(c, i) + core_.shooter_reflectance(c, i) * ambient[size_t(c)];
+      core_.system().with_shooter_row(i, [&](const auto* F) { core_.shoot(F, i, s, false); });
       return {};
     }
     // Regather: select by the power the shot would carry if each element's last overshoot
@@ -127,12 +129,12 @@ class OvershootingSolver final : public Solver {
       best_ = core_.first_unshot();
     }
     const size_t i = best_.index;
-    for (int c = 0; c < channels; ++c) s[c] = core_.unshot().at(c, i);
-    core_.system().with_row(i, [&](const auto* F) {
+    for (int c = 0; c < channels; ++c) s[c] = core_.shooter_unshot(c, i);
+    core_.system().with_shooter_row(i, [&](const auto* F) {
       double gathered[3] = {0.0, 0.0, 0.0};
       kernels::gather(F, core_.unshot(), gathered, options_.clamp);
       for (int c = 0; c < channels; ++c) {
-        overshoot_.at(c, i) = rho.at(c, i) * gathered[c];
+        overshoot_.at(c, i) = core_.shooter_reflectance(c, i) * gathered[c];
         s[c] += overshoot_.at(c, i);
       }
       best_ = core_.shoot(F, i, s, true);

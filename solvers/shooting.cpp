@@ -13,7 +13,9 @@
 // Parameters: none.
 // Cost per step: one form-factor row (n multiply-adds per channel); a step that finds the next
 //   element with unshot energy scans the skipped elements' dB (no rows).
-// Left out: Cohen's patch/element two-level hierarchy (radlab shoots from elements).
+//   On a two-level System (solvers/patches.h) the turns go to patches, each shooting one patch
+//   row to every element, as Cohen's "Shooting Only" does.
+// Left out: nothing of the paper's method.
 #include "solvers/shooting_core.h"
 #include "solvers/solver_factories.h"
 
@@ -28,16 +30,13 @@ class ShootingSolver final : public Solver {
   }
 
   StepInfo step() override {
-    const size_t n = core_.size();
-    const Radiosity& dB = core_.unshot();
+    const size_t n = core_.shooters();  // elements, or patches on a two-level System
     for (size_t tried = 0; tried < n; ++tried) {
       const size_t i = (next_ + tried) % n;
-      bool unshot = false;
-      for (int c = 0; c < dB.channels(); ++c) unshot |= dB.at(c, i) != 0.0;
-      if (!unshot) continue;
+      if (!core_.shooter_has_unshot(i)) continue;
       double s[3] = {0.0, 0.0, 0.0};
-      for (int c = 0; c < dB.channels(); ++c) s[c] = dB.at(c, i);
-      core_.system().with_row(i, [&](const auto* F) { core_.shoot(F, i, s, false); });
+      for (int c = 0; c < core_.channels(); ++c) s[c] = core_.shooter_unshot(c, i);
+      core_.system().with_shooter_row(i, [&](const auto* F) { core_.shoot(F, i, s, false); });
       next_ = (i + 1) % n;
       return {};
     }

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstring>
 
+#include "core/error.h"
+
 namespace radlab {
 
 void ShootingCore::init(const System& system) {
@@ -58,6 +60,11 @@ kernels::ShotTargets ShootingCore::targets() const {
 template <class T>
 kernels::Argmax ShootingCore::shoot(const T* F, size_t i, const double* s, bool select,
                                     double* coverage) {
+  if (system_->two_level()) {
+    if (coverage)
+      throw UsageError("shot coverage (Wu & Wang's dff) is defined for element shooters only");
+    return shoot_patch(F, i, s, select);
+  }
   const size_t n = size();
   const double Ai = system_->area()[i];
   double k[3] = {0.0, 0.0, 0.0};
@@ -85,10 +92,88 @@ kernels::Argmax ShootingCore::shoot(const T* F, size_t i, const double* s, bool 
   return best;
 }
 
+template <class T>
+kernels::Argmax ShootingCore::shoot_patch(const T* F, size_t p, const double* s, bool select) {
+  const Patches& patches = system_->shooters();
+  const auto members = patches.members(p);
+  const size_t m = members.size();
+  const int C = channels();
+  // Each member's share, taken before the row reaches the patch's own elements (their self
+  // terms, zero for a planar patch, are delivered like any other receiver's).
+  amounts_.resize(m * size_t(C));
+  for (int c = 0; c < C; ++c) {
+    const double excess = m == 1 ? 0.0 : s[c] - shooter_unshot(c, p);
+    for (size_t k = 0; k < m; ++k)
+      amounts_[size_t(c) * m + k] = m == 1 ? s[c] : dB_.at(c, members[k]) + excess;
+  }
+  const double Ap = patches.area(p);
+  double k[3] = {0.0, 0.0, 0.0};
+  for (int c = 0; c < C; ++c) k[c] = Ap * s[c];
+  kernels::ShotTargets t = targets();
+  for (int c = 0; c < C; ++c) t.offset[c] = nullptr;  // per shooter here, not per element
+  kernels::shoot(F, 0, size(), k, Ap, t, false);
+  for (int c = 0; c < C; ++c)
+    for (size_t q = 0; q < m; ++q) {
+      const double share = amounts_[size_t(c) * m + q];
+      dB_.at(c, members[q]) -= share;
+      x_.at(c, members[q]) += share;
+    }
+  dirty_ = true;
+  if (!select) return {};
+  return max_priority();
+}
+
 template kernels::Argmax ShootingCore::shoot(const float*, size_t, const double*, bool, double*);
 template kernels::Argmax ShootingCore::shoot(const double*, size_t, const double*, bool, double*);
 
+double ShootingCore::shooter_unshot(int c, size_t p) const {
+  if (!system_->two_level()) return dB_.at(c, p);
+  const Patches& patches = system_->shooters();
+  const auto members = patches.members(p);
+  const auto weights = patches.weights(p);
+  double u = 0.0;
+  for (size_t k = 0; k < members.size(); ++k) u += weights[k] * dB_.at(c, members[k]);
+  return u;
+}
+
+double ShootingCore::shooter_reflectance(int c, size_t p) const {
+  const Radiosity& rho = system_->reflectance();
+  if (!system_->two_level()) return rho.at(c, p);
+  const Patches& patches = system_->shooters();
+  const auto members = patches.members(p);
+  const auto weights = patches.weights(p);
+  double r = 0.0;
+  for (size_t k = 0; k < members.size(); ++k) r += weights[k] * rho.at(c, members[k]);
+  return r;
+}
+
+bool ShootingCore::shooter_has_unshot(size_t p) const {
+  for (uint32_t e : system_->shooters().members(p))
+    for (int c = 0; c < channels(); ++c)
+      if (dB_.at(c, e) != 0.0) return true;
+  return false;
+}
+
+kernels::Argmax ShootingCore::max_priority() const {
+  if (!system_->two_level()) return kernels::max_priority(0, size(), targets());
+  kernels::Argmax best;
+  for (size_t p = 0; p < shooters(); ++p) {
+    const double value = priority(p);
+    if (value > best.value) best = {value, p};
+  }
+  return best;
+}
+
 double ShootingCore::priority(size_t j) const {
+  if (system_->two_level()) {
+    // The kernels' order: (0 + |dB_0p (+ o_0p)| + ...) * A_p.
+    double p = 0.0;
+    for (int c = 0; c < channels(); ++c) {
+      const double u = shooter_unshot(c, j);
+      p += std::fabs(offset_ ? u + offset_->at(c, j) : u);
+    }
+    return p * shooter_area(j);
+  }
   double p = 0.0;
   for (int c = 0; c < channels(); ++c) {
     if (offset_)
@@ -108,7 +193,7 @@ bool ShootingCore::all_shot() const {
 kernels::Argmax ShootingCore::first_unshot() const {
   for (size_t j = 0; j < size(); ++j)
     for (int c = 0; c < channels(); ++c)
-      if (dB_.at(c, j) != 0.0) return {0.0, j};
+      if (dB_.at(c, j) != 0.0) return {0.0, system_->shooters().patch_of(j)};
   return {};
 }
 

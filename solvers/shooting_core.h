@@ -16,6 +16,16 @@
 // note the same between their gathering and shooting hemicubes).
 //
 // Storing x rather than B keeps the shot loop to one updated array per channel.
+//
+// Shooters (solvers/patches.h): solvers pick and shoot *shooters* — elements on a one-level
+// System, patches on a two-level one — through shooters(), shooter_unshot(), priority(), shoot()
+// and System::with_shooter_row(). A patch's unshot radiosity is the area-weighted mean of its
+// elements' dB (dB_p A_p = sum_i A_i dB_i), its priority A_p sum_c |dB_cp (+ o_cp)|. Shooting s
+// from patch p (its row P_p) is the simultaneous shot of every member i of s_i = dB_i + (s - dB_p)
+// through the shared row: every receiver e gets rho_e P_pe (A_p / A_e) s, then each member's books
+// move s_i from dB_i to x_i. With s = dB_p that empties the patch (Cohen's Delta B_i = 0), and the
+// invariant above holds with J' = diag(rho) K (solvers/patches.h). A one-element patch shoots s
+// itself, so one element per patch reproduces the one-level shots bit for bit.
 #pragma once
 
 #include <cstddef>
@@ -35,28 +45,38 @@ class ShootingCore {
   size_t size() const { return dB_.size(); }
   int channels() const { return dB_.channels(); }
 
-  // Priorities become A_j sum_c |dB_cj + o_cj| (overshooting), o kept by the caller with this
-  // system's shape and read whenever a priority is formed; null (the default, and after init)
+  // The shooters: elements (one-level System) or patches (two-level).
+  size_t shooters() const { return system_->shooters().size(); }
+  // dB of shooter p in channel c: the area-weighted mean over its elements.
+  double shooter_unshot(int c, size_t p) const;
+  // The area-weighted mean reflectance of shooter p.
+  double shooter_reflectance(int c, size_t p) const;
+  double shooter_area(size_t p) const { return system_->shooters().area(p); }
+  // Whether any element of shooter p has a non-zero dB in any channel.
+  bool shooter_has_unshot(size_t p) const;
+
+  // Priorities become A_j sum_c |dB_cj + o_cj| (overshooting), o kept by the caller with one
+  // value per shooter and read whenever a priority is formed; null (the default, and after init)
   // for A_j sum_c |dB_cj|.
   void set_priority_offset(const Radiosity* offset) { offset_ = offset; }
 
-  // Shoots s[c] from element i, given row i of F (read through System::with_row by the caller,
-  // which counts it). With select, returns the element with the largest priority
+  // Shoots s[c] from shooter i, given its row (read through System::with_shooter_row by the
+  // caller, which counts it). With select, returns the element with the largest priority
   // A_j sum_c |dB_cj| (+ o_cj with an offset; o_i as it is at the call) afterwards (lowest index
   // among equals): the same value and index as max_priority() after the shot. With coverage, adds
-  // F_ji to coverage[j] for every receiver j != i (Wu & Wang's dff).
+  // F_ji to coverage[j] for every receiver j != i (Wu & Wang's dff; element shooters only).
   template <class T>
   kernels::Argmax shoot(const T* F, size_t i, const double* s, bool select,
                         double* coverage = nullptr);
 
-  // The element with the largest priority, by a full scan.
-  kernels::Argmax max_priority() const { return kernels::max_priority(0, size(), targets()); }
+  // The shooter with the largest priority, by a full scan.
+  kernels::Argmax max_priority() const;
   // The priority of one element (the same arithmetic as the kernels, offset included).
   double priority(size_t j) const;
   // Whether every unshot value is exactly zero.
   bool all_shot() const;
-  // The lowest-index element with a non-zero unshot value (priority 0 stands in for a priority
-  // that underflowed), or kNone.
+  // The shooter of the lowest-index element with a non-zero unshot value (priority 0 stands in for
+  // a priority that underflowed), or kNone.
   kernels::Argmax first_unshot() const;
   // Unshot power sum_j A_j dB_cj per channel (clamp_negative: positive dB only).
   void unshot_power(bool clamp_negative, double* out) const;
@@ -74,6 +94,8 @@ class ShootingCore {
 
  private:
   kernels::ShotTargets targets() const;
+  template <class T>
+  kernels::Argmax shoot_patch(const T* F, size_t p, const double* s, bool select);
 
   // Runs shorter than this on average are not worth a vector loop each: the kernels then read
   // the reflectance per element instead.
@@ -83,6 +105,7 @@ class ShootingCore {
   Radiosity x_, dB_;
   std::vector<kernels::ReflectanceRun> runs_;  // equal reflectance (empty: per element)
   const Radiosity* offset_ = nullptr;          // o in the priority (null: none)
+  std::vector<double> amounts_;                // a patch shot's s_i per member and channel
   mutable Radiosity B_;
   mutable bool dirty_ = true;
 };

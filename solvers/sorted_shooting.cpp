@@ -1,6 +1,7 @@
 // sorted-shooting — progressive refinement, shooting the largest unshot power first (Southwell).
 //
-// Method: each step shoots from the element with the largest unshot power A_i sum_c |dB_ci|
+// Method: each step shoots from the shooter (element, or patch on a two-level System) with the
+//   largest unshot power A_i sum_c |dB_ci|
 //   (ties to the lowest index), delivering rho_j F_ij (A_i/A_j) s to every j with s = omega dB_i
 //   (solvers/shooting_core.h has the bookkeeping). With omega <= 1 and E >= 0 every dB stays
 //   >= 0 and B rises monotonically to the solution of the shooting system.
@@ -77,8 +78,8 @@ class SortedShootingSolver final : public Solver {
     }
     const size_t i = best_.index;
     double s[3] = {0.0, 0.0, 0.0};
-    for (int c = 0; c < core_.channels(); ++c) s[c] = options_.omega * core_.unshot().at(c, i);
-    core_.system().with_row(i, [&](const auto* F) { best_ = core_.shoot(F, i, s, true); });
+    for (int c = 0; c < core_.channels(); ++c) s[c] = options_.omega * core_.shooter_unshot(c, i);
+    core_.system().with_shooter_row(i, [&](const auto* F) { best_ = core_.shoot(F, i, s, true); });
     return {};
   }
 

@@ -1,6 +1,7 @@
 #include "solvers/system.h"
 
 #include <algorithm>
+#include <stdexcept>
 
 namespace radlab {
 
@@ -14,10 +15,23 @@ System::System(const Scene& scene, const Mesh& mesh, const FormFactorMethod& met
   init(scene);
 }
 
+System::System(const Scene& scene, const Mesh& mesh, const FormFactorMatrix& matrix,
+               const Patches& patches, const RowMatrix& rows)
+    : scene_(scene), mesh_(mesh), matrix_(&matrix), patch_rows_(&rows), shooters_(&patches) {
+  if (patches.elements() != mesh.size() || matrix.size() != mesh.size() ||
+      rows.rows() != patches.size() || rows.columns() != mesh.size())
+    throw std::invalid_argument("System: two-level parts of different sizes");
+  init(scene);
+}
+
 void System::init(const Scene& scene) {
   const size_t n = mesh_.size();
   const int channels = scene.is_grey() ? 1 : 3;
   area_ = mesh_.area;
+  if (!shooters_) {
+    own_shooters_ = element_patches(mesh_);
+    shooters_ = &own_shooters_;
+  }
   inverse_area_.resize(n);
   total_area_ = 0.0;
   for (size_t i = 0; i < n; ++i) {

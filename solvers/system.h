@@ -13,6 +13,13 @@
 // on other pairs (hierarchical links, patch-to-element rows) charges what it evaluates with
 // charge_pair_evaluations(), refinement estimates included.
 //
+// Shooters (Cohen et al. 1988 §3.4): a shooting solver shoots from "shooters" and reads their
+// rows through with_shooter_row(). On a one-level System shooter p is element p and its row is
+// F's row p (the same call as with_row). On a two-level System (solvers/patches.h) the shooters
+// are patches: with_row(e) gives K's row e (element e gathering over patches) and
+// with_shooter_row(p) the patch-to-element row P_p; both count one row and n pair evaluations.
+// A solver written against shooters runs on both without knowing which it has.
+//
 // A System is immutable during a run except for its counters.
 #pragma once
 
@@ -25,6 +32,7 @@
 #include "formfactor/form_factor_method.h"
 #include "formfactor/matrix.h"
 #include "scene/mesh.h"
+#include "solvers/patches.h"
 
 namespace radlab {
 
@@ -34,6 +42,10 @@ class System {
   System(const Scene& scene, const Mesh& mesh, const FormFactorMatrix& matrix);
   // Rows computed on demand by `method` (not owned).
   System(const Scene& scene, const Mesh& mesh, const FormFactorMethod& method);
+  // Two levels: `matrix` is K (two_level_matrix) and `rows` the patch rows of `patches`
+  // (patch_rows); none is owned, all must outlive the System.
+  System(const Scene& scene, const Mesh& mesh, const FormFactorMatrix& matrix,
+         const Patches& patches, const RowMatrix& rows);
 
   size_t size() const { return area_.size(); }
   int channels() const { return reflectance_.channels(); }
@@ -64,6 +76,19 @@ class System {
     fn(static_cast<const double*>(scratch.data()));
   }
 
+  // Shooters: patches on a two-level System, else the elements themselves.
+  bool two_level() const { return patch_rows_ != nullptr; }
+  const Patches& shooters() const { return *shooters_; }
+  // Calls fn(const T* row) with row[e] = the form factor from shooter p to element e; counts one
+  // row.
+  template <class Fn>
+  void with_shooter_row(size_t p, Fn&& fn) const {
+    if (!patch_rows_) return with_row(p, fn);
+    rows_used_.fetch_add(1, std::memory_order_relaxed);
+    pair_evaluations_.fetch_add(size(), std::memory_order_relaxed);
+    patch_rows_->visit_row(p, fn);
+  }
+
   // The dense matrix when rows come from one (null when computed on the fly).
   const FormFactorMatrix* matrix() const { return matrix_; }
 
@@ -89,6 +114,9 @@ class System {
   const Mesh& mesh_;
   const FormFactorMatrix* matrix_ = nullptr;
   const FormFactorMethod* method_ = nullptr;
+  const RowMatrix* patch_rows_ = nullptr;
+  const Patches* shooters_ = nullptr;
+  Patches own_shooters_;  // one per element, on a one-level System
   std::vector<double> area_, inverse_area_;
   double total_area_ = 0.0;
   double max_reflectance_ = 0.0;
