@@ -89,6 +89,16 @@ class System {
     patch_rows_->visit_row(p, fn);
   }
 
+  // As above, charging `pairs` pair evaluations instead of n on a two-level System: the row read
+  // onto coarser receivers (adaptive elements, each a union of the mesh's elements).
+  template <class Fn>
+  void with_shooter_row(size_t p, uint64_t pairs, Fn&& fn) const {
+    if (!patch_rows_) return with_row(p, fn);
+    rows_used_.fetch_add(1, std::memory_order_relaxed);
+    pair_evaluations_.fetch_add(pairs, std::memory_order_relaxed);
+    patch_rows_->visit_row(p, fn);
+  }
+
   // The dense matrix when rows come from one (null when computed on the fly).
   const FormFactorMatrix* matrix() const { return matrix_; }
 

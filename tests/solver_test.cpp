@@ -1246,8 +1246,8 @@ TEST(ConjugateGradient, EliminatesBlackElementsAndCountsItsRows) {
 
 TEST(Registry, CountsTheSolvers) {
   // jacobi, gauss-seidel (foundation); shooting, sorted-shooting, overshooting, interleaved,
-  // conjugate-gradient (issue 4).
-  EXPECT_EQ(solver_registry().size(), 7u);
+  // conjugate-gradient (issue 4); adaptive-shooting (issue 10).
+  EXPECT_EQ(solver_registry().size(), 8u);
 }
 
 TEST(Registry, UnknownSolverAndKeyListTheValidOnes) {
