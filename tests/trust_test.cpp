@@ -215,5 +215,66 @@ TEST(TrustDivergence, BlowUpIsStillDivergence) {
   budget.steps = 6000;
   testing::expect_error<NumericalError>([&] { run(*p, "jacobi", budget); }, {"diverging"});
 }
+
+// Finding 5: conjugate gradients. A closed unit cube (rho = 0.999, the ceiling emits) whose floor
+// has a 1e-3 x 1e-3 m corner piece beside a 1e-3 m strip and the rest: area ratio 1e6 between
+// neighbours. Raycast form factors stored in float: CG converged, kept going, and broke down
+// with p^T M p = 0 ("not positive definite"), writing nothing.
+std::string corner_cube(const testing::TempDir& dir) {
+  dir.write("m.mtl",
+            "newmtl wall\nKd 0.999 0.999 0.999\nnewmtl light\nKd 0.999 0.999 0.999\nKe 1 1 1\n");
+  return dir.write("corner.obj",
+                   "mtllib m.mtl\n"
+                   "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+                   "v 0.001 0 0\nv 0.001 0.001 0\nv 0 0.001 0\nv 1 0.001 0\n"
+                   "usemtl light\nf 5 8 7 6\n"
+                   "usemtl wall\nf 1 4 8 5\nf 2 6 7 3\nf 1 5 6 2\nf 4 3 7 8\n"
+                   "f 1 9 10 11\nf 9 2 12 10\nf 11 12 3 4\n");
+}
+
+TEST(TrustConjugateGradient, BreakdownAfterConvergenceIsConvergence) {
+  testing::TempDir dir;
+  ProblemSpec spec;
+  spec.scene = corner_cube(dir);
+  spec.ff_method = "raycast";
+  spec.cache_dir = dir.path().string();
+  auto p = prepare_problem(spec);
+  ParamBag bag;
+  auto solver = make_solver("conjugate-gradient", bag);
+  Budget budget;
+  budget.steps = 400;  // CG needs ~8 steps on 8 elements; the rest is "past convergence"
+  RunResult r;
+  ASSERT_NO_THROW(r = run_solver(*solver, *p, budget, CheckpointSchedule{},
+                                 RunLabels{"cg", "corner", "cg", ""}, nullptr));
+  EXPECT_EQ(r.stop_reason, "solver finished");
+  // CG solves the system it reads, the float matrix: it must be there to rounding. Its own
+  // certified reference; the bound is relative (||(I-J)^-1|| = 1000 times a residual of a few u).
+  System float_system(p->scene(), p->mesh, p->matrix);
+  const Reference float_ref = compute_reference(float_system, p->matrix);
+  double worst = 0.0;
+  for (size_t i = 0; i < p->system->size(); ++i)
+    worst = std::max(worst, std::abs(solver->solution().at(0, i) - float_ref.B.at(0, i)));
+  EXPECT_LE(worst / float_ref.B.at(0, emitter_of(*p)), 1e-11);
+}
+
+// With preconditioner=none on the Cornell box (subdiv 4, double storage), CG reached 4e-15 and,
+// left running, broke down after ~660 steps. It must stop at the rounding level instead.
+TEST(TrustConjugateGradient, StopsAtTheRoundingLevel) {
+  testing::TempDir dir;
+  ProblemSpec spec;
+  spec.scene = "builtin:cornell";
+  spec.mesh.subdivisions = 4;
+  spec.precision = Precision::kDouble;
+  spec.cache_dir = dir.path().string();
+  auto p = prepare_problem(spec);
+  Budget budget;
+  budget.steps = 1000;
+  RunResult r;
+  ASSERT_NO_THROW(r = run(*p, "conjugate-gradient", budget, {"preconditioner=none"}));
+  EXPECT_EQ(r.stop_reason, "solver finished");
+  EXPECT_LT(r.steps, 200);
+  // ||(I-J)^-1|| ~ 3 here; a residual at the rounding level certifies ~1e-14.
+  EXPECT_LE(r.final_bound_relative, 1e-13);
+}
 }  // namespace
 }  // namespace radlab
