@@ -35,7 +35,9 @@ Json parse_json(const std::string& text, const std::string& name, size_t max_dep
     std::string what = e.what();
     const size_t at = what.find("] ");
     if (at != std::string::npos) what = what.substr(at + 2);
-    throw InputError(name + ": bad JSON at byte " + std::to_string(e.byte) + ": " + what);
+    // nlohmann counts the bytes read, the offending one included; offsets here start at 0.
+    const size_t offset = e.byte > 0 ? e.byte - 1 : 0;
+    throw InputError(name + ": bad JSON at byte " + std::to_string(offset) + ": " + what);
   } catch (const nlohmann::json::exception& e) {
     throw InputError(name + ": bad JSON: " + e.what());
   }

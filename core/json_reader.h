@@ -16,7 +16,8 @@ using Json = nlohmann::ordered_json;
 
 constexpr size_t kJsonMaxDepth = 64;
 
-// Parses `text`; `name` (a file path) starts every error message.
+// Parses `text`; `name` (a file path) starts every error message, which gives the offset (from
+// 0) of the byte at fault.
 Json parse_json(const std::string& text, const std::string& name, size_t max_depth = kJsonMaxDepth);
 
 // Reads and parses a file; a missing or unreadable file is an InputError too.
