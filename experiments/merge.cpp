@@ -128,11 +128,10 @@ Json merged_array(const std::vector<Shard>& shards, const std::string& key,
     if (array == s.sweep.end()) continue;
     if (!array->is_array()) throw InputError(s.dir + "/sweep.json: '" + key + "' is not an array");
     for (const Json& item : *array) {
-      auto order = item.is_object() ? item.find(order_key) : item.end();
-      if (!item.is_object() || order == item.end() || !order->is_number_integer())
+      if (!item.is_object() || !item.contains(order_key) || !item[order_key].is_number_integer())
         throw InputError(s.dir + "/sweep.json: an item of '" + key + "' has no integer '" +
                          order_key + "'");
-      by_order.emplace(order->get<long long>(), item);
+      by_order.emplace(item[order_key].get<long long>(), item);
     }
   }
   Json out = Json::array();
