@@ -155,9 +155,9 @@ RowMatrix::RowMatrix(size_t rows, size_t n, Precision precision)
     f64_.assign(rows * n, 0.0);
 }
 
-RowMatrix patch_rows(const FormFactorMatrix& F, const Patches& patches) {
+RowMatrix patch_rows(const FormFactorMatrix& F, const Patches& patches, Precision precision) {
   const size_t n = F.size();
-  RowMatrix P(patches.size(), n, F.precision());
+  RowMatrix P(patches.size(), n, precision);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, patches.size()),
                     [&](const tbb::blocked_range<size_t>& range) {
                       std::vector<double> row(n);

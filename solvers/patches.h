@@ -116,8 +116,8 @@ class RowMatrix {
   std::vector<double> f64_;
 };
 
-// P_pe = sum_{i in p} (A_i / A_p) F_ie, in F's precision (sums in double).
-RowMatrix patch_rows(const FormFactorMatrix& F, const Patches& patches);
+// P_pe = sum_{i in p} (A_i / A_p) F_ie, stored in `precision` (sums in double).
+RowMatrix patch_rows(const FormFactorMatrix& F, const Patches& patches, Precision precision);
 // K_ej = F_{e,p(j)} (A_j / A_p(j)), F_{e,p} = sum_{k in p} F_ek, in F's precision (sums in
 // double). The matrix the gathering solvers read and the reference solves.
 FormFactorMatrix two_level_matrix(const FormFactorMatrix& F, const Patches& patches);

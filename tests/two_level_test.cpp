@@ -47,7 +47,7 @@ std::unique_ptr<TwoLevelSetup> setup(const std::string& spec, int subdiv, Precis
   s->F = build_matrix(ff, s->mesh.size(), precision, report);
   symmetrise(s->F, s->mesh.area);
   s->patches = per_element ? element_patches(s->mesh) : polygon_patches(s->mesh);
-  s->P = patch_rows(s->F, s->patches);
+  s->P = patch_rows(s->F, s->patches, s->F.precision());
   s->K = two_level_matrix(s->F, s->patches);
   s->one_level = std::make_unique<System>(s->scene, s->mesh, s->F);
   s->two_level = std::make_unique<System>(s->scene, s->mesh, s->K, s->patches, s->P);
@@ -302,7 +302,7 @@ std::unique_ptr<TwoLevelSetup> shadow_edge_setup() {
   s->F = build_matrix(ff, s->mesh.size(), Precision::kDouble, report);
   symmetrise(s->F, s->mesh.area);
   s->patches = polygon_patches(s->mesh);
-  s->P = patch_rows(s->F, s->patches);
+  s->P = patch_rows(s->F, s->patches, s->F.precision());
   s->K = two_level_matrix(s->F, s->patches);
   s->two_level = std::make_unique<System>(scene, s->mesh, s->K, s->patches, s->P);
   return s;
