@@ -52,6 +52,7 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
     cache.emplace(cache_dir);
     key = matrix_cache_key(problem->mesh, problem->method->name(), problem->method->parameters(),
                            precision);
+    problem->matrix_cache_file = cache->path(key).string();
   }
   if (spec.row_mode == RowMode::kCached || spec.need_reference) {
     std::optional<FormFactorMatrix> cached =
@@ -100,6 +101,7 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
     if (cache) {
       references.emplace(cache_dir);
       reference_key = reference_cache_key(key, symmetrise_ff, cached, {});
+      problem->reference_cache_file = references->path(reference_key).string();
       problem->reference = references->load(reference_key, cached, problem->matrix, {});
     }
     if (!problem->reference) {
