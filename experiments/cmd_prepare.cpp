@@ -16,7 +16,8 @@
 // only for a finished preparation).
 //
 // Estimates (upper-bound-minded, machine-dependent, for a scheduler's requests, not for papers):
-//   memory  the dense matrix n^2 x 4|8 bytes, plus the reference's dense n x n double LU, plus
+//   memory  the dense matrix n^2 x 8 bytes (and its float rounding, 4 more, with float rows),
+//           plus the reference's dense n x n double LU, plus
 //           256 MB for the program, scene and vectors; a shard that finds the cache empty
 //           recomputes both, so shards are given the same figure.
 //   time    prepare: n^2 pairs at 1 us each (form factors with visibility) + n^3/3 LU flops at
@@ -67,8 +68,10 @@ ProblemEstimate estimate_problem(const PlannedProblem& planned) {
     return e;
   }
   const double n = double(e.elements);
-  const double bytes = planned.spec.precision == Precision::kDouble ? 8.0 : 4.0;
-  e.matrix_bytes = n * n * bytes;
+  // The matrix the solvers read, plus (with float storage) the double matrix the reference is
+  // certified against, which prepare_problem keeps beside it.
+  const bool float_rows = planned.spec.precision == Precision::kFloat;
+  e.matrix_bytes = n * n * (float_rows ? 4.0 + 8.0 : 8.0);
   e.memory_bytes = e.matrix_bytes + (planned.spec.need_reference ? 8.0 * n * n : 0.0) + 256e6;
   e.prepare_seconds = n * n * 1e-6 + (planned.spec.need_reference ? n * n * n / 3.0 * 1e-9 : 0.0);
   return e;
