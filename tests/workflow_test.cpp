@@ -1,19 +1,25 @@
 // The Snakemake workflow (workflow/Snakefile, docs/workflow.md) end to end on a tiny experiment:
 // prepare -> 3 shards -> merge gives the unsharded `radlab run`'s trace and summary (time columns
 // aside), two workflows sharing one empty cache at once leave it whole, a deleted shard is
-// recomputed alone (read from Snakemake's own job table), an edited experiment reruns everything,
-// and a failing shard or preparation fails its job with radlab's message. Skipped, saying so,
+// recomputed alone (read from Snakemake's own job table), a shard killed mid-way resumes, an
+// edited experiment reruns everything, and a failing shard or preparation fails its job with
+// radlab's message. Skipped, saying so,
 // when snakemake is not installed (scripts/install-deps.sh installs it).
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <array>
+#include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <thread>
 
 #include "core/csv_reader.h"
 #include "experiments/summary.h"
@@ -251,6 +257,57 @@ TEST(Workflow, ShardedEqualsUnshardedAndRedoesOnlyWhatIsMissing) {
   EXPECT_EQ(jobs(rerun, "shard"), 3) << edited.output;
 }
 
+TEST(Workflow, AKilledShardResumesWhatItFinished) {
+  if (!have_snakemake())
+    GTEST_SKIP() << "snakemake is not installed (scripts/install-deps.sh installs Debian's "
+                    "snakemake): the workflow is not tested";
+  TempDir dir;
+  // Six runs of ~0.4 s each (jacobi on a 216-element cube, 300k rows), so a kill lands mid-shard.
+  const std::string toml =
+      dir.write("slow.toml",
+                "name = \"slow\"\nscenes = [\"builtin:cube:rho=0.9\"]\n"
+                "subdiv = 6\nsolvers = [\"jacobi\"]\n[form_factors]\nrays = 4\n"
+                "[budget]\nrows = 300000\n[parameters.jacobi]\n"
+                "omega = [1.0, 0.9, 0.8, 0.7, 0.6, 0.5]\n");
+  const std::string cache = dir.file("cache");
+  const Result prepared =
+      shell("RADLAB_CACHE_DIR=" + cache + " " + RADLAB_BINARY + " -q prepare " + toml);
+  ASSERT_EQ(prepared.code, 0) << prepared.output;
+
+  // Shard 1 of 2 (runs 1, 3, 5) where the workflow keeps it, killed once run 1 is complete.
+  const std::string shard = dir.file("out/slow/shards/1");
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    setenv("RADLAB_CACHE_DIR", cache.c_str(), 1);
+    const int null = ::open("/dev/null", O_WRONLY);
+    dup2(null, 1);
+    dup2(null, 2);
+    execl(RADLAB_BINARY, RADLAB_BINARY, "run", toml.c_str(), "--shard", "1/2", "--out",
+          shard.c_str(), nullptr);
+    _exit(127);
+  }
+  const std::string first_done = shard + "/.radlab-partial/000001.summary.csv";
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (!fs::exists(first_done) && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  kill(child, SIGKILL);
+  int status = 0;
+  waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFSIGNALED(status)) << "the shard finished before it could be killed";
+
+  // The workflow keeps the killed shard's folder: radlab resumes it, and says so in the log.
+  const Result resumed = shell(snakemake(dir.file("w"), toml, 2, dir.file("out"), cache));
+  ASSERT_EQ(resumed.code, 0) << resumed.output;
+  EXPECT_EQ(jobs(job_counts(resumed.output), "shard"), 2) << resumed.output;
+  std::ifstream log(dir.file("out/slow/logs/shard_1.log"));
+  std::stringstream text;
+  text << log.rdbuf();
+  EXPECT_NE(text.str().find("resumed: 1 runs were already complete"), std::string::npos)
+      << text.str();
+  EXPECT_EQ(read_csv(dir.file("out/slow/merged/summary.csv")).rows.size(), 6u);
+}
+
 TEST(Workflow, FailuresFailTheirJobWithRadlabsMessage) {
   if (!have_snakemake())
     GTEST_SKIP() << "snakemake is not installed (scripts/install-deps.sh installs Debian's "
@@ -273,7 +330,7 @@ TEST(Workflow, FailuresFailTheirJobWithRadlabsMessage) {
   std::stringstream text;
   text << log.rdbuf();
   EXPECT_NE(text.str().find("radlab: error: 1 of 1 runs failed"), std::string::npos) << text.str();
-  EXPECT_FALSE(fs::exists(dir.file("out/stiff/shards/0")));
+  EXPECT_FALSE(fs::exists(dir.file("out/stiff/shards/0/summary.csv")));
   EXPECT_FALSE(fs::exists(dir.file("out/stiff/merged")));
 
   // A scene that cannot be loaded fails its preparation (exit 3), naming the file.
