@@ -109,6 +109,9 @@ void run(const SolveOptions& o, int argc, char** argv) {
                 result.final_display_errors.rms_rel);
     std::printf("certified    ||B - B*||_inf / max B* <= %.6g\n", result.final_bound_relative);
   }
+  if (result.tolerance_asked)
+    std::printf("verdict      %s\n",
+                result.tolerance_reached ? "tolerance reached" : result.tolerance_message.c_str());
   if (!o.out.empty()) {
     ensure_parent_folder(o.out);
     write_radiosity_csv(o.out, problem->mesh, solver->solution());
@@ -133,6 +136,9 @@ void run(const SolveOptions& o, int argc, char** argv) {
     json.save(json_path);
     log::info("wrote " + json_path);
   }
+  // Everything is written; the exit code tells a script the tolerance was missed.
+  if (result.tolerance_asked && !result.tolerance_reached)
+    throw Error(ExitCode::kToleranceNotReached, labels.run_id + ": " + result.tolerance_message);
 }
 
 }  // namespace

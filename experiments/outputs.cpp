@@ -90,6 +90,7 @@ void write_problem_info(JsonWriter& json, const Problem& p) {
     const Reference& r = *p.reference;
     json.key("reference").begin_object();
     json.field("method", r.method);
+    json.field("certified_system", r.system);
     json.field("bound_inf", r.bound_inf);
     json.field("bound_relative", r.bound_relative);
     json.field("residual_inf", r.residual_inf);
@@ -131,6 +132,10 @@ void write_run_result(JsonWriter& json, const Budget& budget, const RunResult& r
   json.field("p_max", r.final_errors.p_max);
   json.field("rms_rel_display", r.final_display_errors.rms_rel);
   json.field("bound_relative", r.final_bound_relative);
+  if (r.tolerance_asked) {
+    json.field("tolerance_reached", r.tolerance_reached);
+    if (!r.tolerance_reached) json.field("tolerance_message", r.tolerance_message);
+  }
   json.end_object();
 }
 

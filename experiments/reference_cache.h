@@ -29,7 +29,8 @@ ReferenceCacheKey reference_cache_key(const MatrixCacheKey& matrix_key, bool sym
 
 class ReferenceCache {
  public:
-  static constexpr uint32_t kFormatVersion = 1;
+  // 2: references are of the method's double-precision matrix, whatever the storage.
+  static constexpr uint32_t kFormatVersion = 2;
 
   explicit ReferenceCache(std::filesystem::path folder) : folder_(std::move(folder)) {}
   std::filesystem::path path(const ReferenceCacheKey& key) const {
