@@ -146,13 +146,13 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
       problem->reference = compute_reference(cached, certified);
       if (references) references->store(reference_key, *problem->reference);
     }
-    computing.reset();
     problem->reference->system =
         "F of " + spec.ff_method + " in double precision, as computed" +
         (symmetrise_ff ? ", then symmetrised (symmetrise=true, the default with cached rows: a "
                          "chosen change of the system; symmetrise=false certifies the method's own)"
                        : "") +
         (precision == Precision::kFloat ? "; solvers read it rounded to float" : "");
+    computing.reset();
     progress.finish();
     log::info("reference: " + problem->reference->summary());
   }
