@@ -30,10 +30,12 @@
 namespace radlab {
 
 struct ReferenceOptions {
-  double target = 1e-12;      // stop refining once the bound is below target * max B
-  double acceptable = 1e-8;   // a bound above acceptable * max B is a failure
-  int max_refinements = 10;   // refinement steps per channel
-  size_t dense_limit = 9000;  // largest n for dense LU (n^2 doubles of memory, n^3/3 flops)
+  double target = 1e-12;           // stop refining once the bound is below target * max B
+  double acceptable = 1e-8;        // a bound above acceptable * max B is a failure
+  int max_refinements = 10;        // refinement steps per channel
+  size_t dense_limit = 9000;       // largest n for dense LU (n^2 doubles of memory, n^3/3 flops)
+  double gmres_tolerance = 1e-10;  // relative residual of each inner GMRES solve above
+                                   // dense_limit; refinement (long double) supplies the rest
 };
 
 struct Reference {
@@ -54,6 +56,7 @@ struct Reference {
   // e.g. the method's F in double precision, symmetrised or not. Empty: the matrix given.
   std::string system;
   int refinements = 0;
+  long long gmres_iterations = 0;  // matrix-vector products of all GMRES solves (0 with LU)
   double seconds = 0.0;
 
   std::string summary() const;
