@@ -8,6 +8,7 @@
 //  - conjugate gradients stop at the rounding level instead of failing after converging;
 //  - the reference's GMRES path certifies stiff systems to 1e-12.
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <cmath>
 #include <fstream>
@@ -301,6 +302,16 @@ TEST(TrustReference, GmresCertifiesAStiffCubeWithoutStalling) {
   EXPECT_LE(gmres.gmres_iterations, 240);
   for (size_t i = 0; i < p->system->size(); ++i)
     EXPECT_NEAR(gmres.B.at(0, i), lu.B.at(0, i), gmres.bound_inf + lu.bound_inf);
+
+  // The same bits on one thread: rows run in parallel, but each is summed in a fixed order.
+  Reference single;
+  {
+    tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    single = compute_reference(*p->system, p->matrix, options);
+  }
+  EXPECT_EQ(single.gmres_iterations, gmres.gmres_iterations);
+  EXPECT_EQ(single.bound_inf, gmres.bound_inf);
+  for (size_t i = 0; i < p->system->size(); ++i) EXPECT_EQ(single.B.at(0, i), gmres.B.at(0, i));
 }
 }  // namespace
 }  // namespace radlab
