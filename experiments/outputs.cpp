@@ -6,6 +6,7 @@
 
 #include "core/csv.h"
 #include "core/text.h"
+#include "formfactor/matrix_cache.h"
 #include "solvers/registry.h"
 
 #ifndef RADLAB_BUILD_TYPE
@@ -20,12 +21,14 @@ void write_radiosity_csv(const std::string& path, const Mesh& mesh, const Radios
     const auto rgb = B.rgb(i);
     csv.add(i).add(mesh.area[i]).add(rgb.x).add(rgb.y).add(rgb.z).end_row();
   }
+  csv.close();
 }
 
 void write_build_info(JsonWriter& json) {
   json.key("build").begin_object();
   json.field("radlab_version", "0.1.0");
   json.field("git_sha", build_git_sha());
+  json.field("source_hash", formfactor_code_version());
   json.field("compiler", std::string("g++ ") + __VERSION__);
   json.field("build_type", RADLAB_BUILD_TYPE);
   json.field("threads", tbb::info::default_concurrency());

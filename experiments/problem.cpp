@@ -71,6 +71,13 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
   if (spec.row_mode == RowMode::kCached || spec.need_reference) {
     std::optional<FormFactorMatrix> cached =
         cache ? cache->load(key, &problem->build) : std::nullopt;
+    // A miss: hold the key's lock while building and storing, so that concurrent processes
+    // (shards on an empty cache) build the matrix once; a waiter finds it stored and loads it.
+    std::unique_ptr<FileLock> building;
+    if (cache && !cached) {
+      building = cache->lock(key);
+      cached = cache->load(key, &problem->build);
+    }
     if (cached) {
       problem->matrix = std::move(*cached);
       log::info("form factors: " + problem->build.summary());
@@ -91,6 +98,7 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
                            "': " + problem->raw_diagnostics.summary());
     if (cache && !problem->build.cached && cache->store(key, problem->matrix, problem->build))
       problem->build.cache_file = cache->path(key).string();
+    building.reset();
     if (symmetrise_ff) {
       log::info("form factors (as computed): " + problem->raw_diagnostics.summary());
       symmetrise(problem->matrix, problem->mesh.area);
@@ -131,6 +139,11 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
       reference_key = reference_cache_key(key, symmetrise_ff, cached, {});
       problem->reference = references->load(reference_key, cached, certified, {});
     }
+    std::unique_ptr<FileLock> computing;  // as for the matrix: computed once, others wait
+    if (references && !problem->reference) {
+      computing = references->lock(reference_key);
+      problem->reference = references->load(reference_key, cached, certified, {});
+    }
     if (!problem->reference) {
       problem->reference = compute_reference(cached, certified);
       if (references) references->store(reference_key, *problem->reference);
@@ -141,6 +154,7 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
                          "chosen change of the system; symmetrise=false certifies the method's own)"
                        : "") +
         (precision == Precision::kFloat ? "; solvers read it rounded to float" : "");
+    computing.reset();
     progress.finish();
     log::info("reference: " + problem->reference->summary());
   }
