@@ -12,8 +12,11 @@
 //       s = 1 - (I - J) w. If w > 0 and ||s||_inf < 1, then J w < w, so rho(J) < 1, (I-J)^-1 >= 0
 //       and (I-J)^-1 1 <= w / (1 - ||s||). This also certifies scenes with q >= 1 (some element
 //       with rho = 1 in a closed scene) as long as the spectral radius is below 1.
-// Residuals include a bound on their own rounding error, so the certificate is rigorous for the
-// stored F (float or double), rho and E.
+// Residuals include a bound on their own rounding error (blocked summation), so the certificate
+// is rigorous for the F given, rho and E. prepare_problem() gives it the method's F in double
+// whatever the solvers' storage (docs/reference.md), and names that system in `system`.
+// Above dense_limit, GMRES solves each correction only to gmres_tolerance: refinement with
+// long-double residuals supplies the accuracy (a tighter inner tolerance stalls on rounding).
 //
 // A system with no finite solution (spectral radius of J >= 1, e.g. a closed scene with rho = 1
 // everywhere) is detected by Collatz–Wielandt bounds before any solve and reported as a
