@@ -97,6 +97,8 @@ void run(const SolveOptions& o, int argc, char** argv) {
                 result.final_display_errors.rms_rel);
     std::printf("certified    ||B - B*||_inf / max B* <= %.6g\n", result.final_bound_relative);
   }
+  for (const auto& [key, value] : solver->statistics())
+    std::printf("statistic    %-28s %.10g\n", key.c_str(), value);
   if (!o.out.empty()) {
     ensure_parent_folder(o.out);
     write_radiosity_csv(o.out, problem->mesh, solver->solution());
@@ -119,6 +121,7 @@ void run(const SolveOptions& o, int argc, char** argv) {
     write_problem_info(json, *problem);
     write_solver_info(json, o.solver, bag.values());
     write_run_result(json, budget, result);
+    write_solver_statistics(json, *solver);
     json.end_object();
     ensure_parent_folder(json_path);
     json.save(json_path);

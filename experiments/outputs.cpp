@@ -131,6 +131,14 @@ void write_run_result(JsonWriter& json, const Budget& budget, const RunResult& r
   json.end_object();
 }
 
+void write_solver_statistics(JsonWriter& json, const Solver& solver) {
+  const auto statistics = solver.statistics();
+  if (statistics.empty()) return;
+  json.key("solver_statistics").begin_object();
+  for (const auto& [key, value] : statistics) json.field(key, value);
+  json.end_object();
+}
+
 std::string command_line(int argc, char** argv) {
   std::vector<std::string> parts;
   for (int k = 0; k < argc; ++k) {
