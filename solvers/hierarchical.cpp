@@ -177,6 +177,9 @@ class HierarchicalSolver final : public Solver {
     add("charts", double(charts_.size()));
     add("nodes", double(tree_.size()));
     add("leaves", double(tree_.leaves));
+    uint32_t depth = 0;
+    for (const NodeKey& k : tree_.key) depth = std::max(depth, k.depth);
+    add("max_depth", double(depth));
     add("links", double(links_.size()));
     add("links_visible", double(visible));
     add("links_partial", double(partial));

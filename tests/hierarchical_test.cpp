@@ -255,6 +255,70 @@ TEST(Hierarchical, ConvergesToTheUniformMeshReferenceAsFepsFalls) {
   }
 }
 
+std::map<std::string, double> statistics_of(const Solver& solver) {
+  std::map<std::string, double> st;
+  for (const auto& [k, v] : solver.statistics()) st[k] = v;
+  return st;
+}
+
+double rms_against_reference(const Setup& s, const Solver& solver) {
+  return compare(solver.solution(), s.reference.B, s.system->area(), kMeanOfChannels).rms_rel;
+}
+
+TEST(Hierarchical, GaussSeidelReachesJacobisFixedPointInFewerPasses) {
+  // Same links (same feps, aeps, seed), so the same linear system: both orders must stop at the
+  // same solution (to 1e-12 relative: the stopping rule leaves changes below 1e-14 of max B per
+  // pass, times 1/(1-rho) ~ 4), Gauss–Seidel in fewer passes (Stein–Rosenberg: the block
+  // system is non-negative).
+  auto s = setup("cornell", 2);
+  auto jacobi = make({"feps=0.01"});
+  auto gs = make({"feps=0.01", "order=gauss-seidel"});
+  for (Solver* solver : {jacobi.get(), gs.get()}) {
+    solver->init(*s->system);
+    run_to_end(*solver);
+  }
+  for (size_t k = 0; k < jacobi->solution().raw().size(); ++k)
+    EXPECT_NEAR(gs->solution().raw()[k], jacobi->solution().raw()[k],
+                1e-12 * std::abs(jacobi->solution().raw()[k]) + 1e-14);
+  EXPECT_LT(statistics_of(*gs)["gather_passes"], statistics_of(*jacobi)["gather_passes"]);
+}
+
+TEST(Hierarchical, MultigriddingReplacesCoarseLinksAndEndsAsFineAsOneLevel) {
+  // levels = 3: refinement at feps*16, feps*4, feps. Each pass's link count grows (links that
+  // fail the finer threshold are replaced by finer ones, so the first pass's coarse links are
+  // gone), and the final error is that of a single-level run at the same feps (within 20%: the
+  // link sets differ where a coarse partial link was split instead of refined from the root).
+  auto s = setup("cornell", 2);
+  auto one = make({"feps=0.005"});
+  auto multi = make({"feps=0.005", "levels=3", "gathers=2"});
+  for (Solver* solver : {one.get(), multi.get()}) {
+    solver->init(*s->system);
+    run_to_end(*solver);
+  }
+  auto st = statistics_of(*multi);
+  EXPECT_EQ(st["refinement_passes"], 3);
+  EXPECT_LT(st["pass1.links"], st["pass2.links"]);
+  EXPECT_LT(st["pass2.links"], st["pass3.links"]);
+  EXPECT_EQ(st["links"], st["pass3.links"]);
+  const double e1 = rms_against_reference(*s, *one), e3 = rms_against_reference(*s, *multi);
+  EXPECT_LT(e3, 1.2 * e1);
+}
+
+TEST(Hierarchical, BfRefinementNeedsFewerLinksThanFRefinement) {
+  // The paper's §5.2: refining on rho B F puts refinement off where little light arrives, so at
+  // the same feps BF needs fewer links than F alone; its error stays within 3x of F's (it
+  // spends links where the energy is; the rms weighs every area alike).
+  auto s = setup("cornell", 2);
+  auto f = make({"feps=0.005"});
+  auto bf = make({"feps=0.005", "refine=bf", "levels=3", "gathers=3"});
+  for (Solver* solver : {f.get(), bf.get()}) {
+    solver->init(*s->system);
+    run_to_end(*solver);
+  }
+  EXPECT_LT(statistics_of(*bf)["links"], statistics_of(*f)["links"]);
+  EXPECT_LT(rms_against_reference(*s, *bf), 3 * rms_against_reference(*s, *f));
+}
+
 TEST(Hierarchical, SameBitsOnOneThreadAndOnMany) {
   auto s = setup("cornell", 2);
   Radiosity one, many;
