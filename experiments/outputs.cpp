@@ -86,7 +86,13 @@ void write_problem_info(JsonWriter& json, const Problem& p) {
   if (p.reference) {
     const Reference& r = *p.reference;
     json.key("reference").begin_object();
+    json.field("kind", r.kind);
     json.field("method", r.method);
+    if (r.kind != "certified") {  // a stand-in: no bound to report, none implied
+      json.field("seconds", r.seconds);
+      json.end_object();
+      return;
+    }
     json.field("bound_inf", r.bound_inf);
     json.field("bound_relative", r.bound_relative);
     json.field("residual_inf", r.residual_inf);
