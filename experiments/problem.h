@@ -44,6 +44,8 @@ struct Problem {
   BuildReport build;
   MatrixDiagnostics diagnostics;      // of the matrix the solvers use (symmetrised if asked)
   MatrixDiagnostics raw_diagnostics;  // of the matrix as the method computed it
+  RowSumCheck row_sums;               // rows of the computed matrix above 1 + stated error
+  RowSumCheck used_row_sums;          // the same for the matrix the solvers use
   std::unique_ptr<System> system;     // rows from the matrix, or on the fly (RowMode)
   std::optional<Reference> reference;
 
