@@ -17,6 +17,9 @@ void add_scene_options(CLI::App& command, SceneOptions& o) {
       .add_option("--element-size", o.element_size,
                   "split polygons so element edges are at most H metres")
       ->excludes(subdiv);
+  command.add_flag("--keep-overlaps", o.keep_overlaps,
+                   "keep coincident same-facing polygons as they are (default: the later one "
+                   "loses the overlap, with a warning)");
 }
 
 void add_form_factor_options(CLI::App& command, FormFactorOptions& o, bool with_mode) {
@@ -38,6 +41,7 @@ ProblemSpec make_spec(const SceneOptions& scene, const FormFactorOptions& ff) {
   spec.scene = scene.scene;
   spec.mesh.subdivisions = scene.subdiv;
   spec.mesh.element_size = scene.element_size;
+  spec.keep_overlaps = scene.keep_overlaps;
   if (scene.subdiv < 1)
     throw UsageError("--subdiv must be >= 1, got " + std::to_string(scene.subdiv));
   if (scene.element_size < 0)

@@ -14,6 +14,7 @@ struct SceneOptions {
   std::string scene;
   int subdiv = 1;
   double element_size = 0.0;
+  bool keep_overlaps = false;  // --keep-overlaps: coincident polygons as they are (overlap.h)
 };
 
 struct FormFactorOptions {

@@ -54,7 +54,7 @@ void refuse_unphysical(const Problem& problem) {
 std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
   auto problem = std::make_unique<Problem>();
   problem->spec = spec;
-  problem->loaded = load_scene(spec.scene);
+  problem->loaded = load_scene(spec.scene, true, spec.keep_overlaps);
   if (spec.require_emitter) require_emitter(problem->scene());
   if (spec.mesh.subdivisions < 1) throw UsageError("--subdiv must be >= 1");
   if (spec.mesh.element_size < 0) throw UsageError("--element-size must be > 0");

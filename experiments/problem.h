@@ -22,8 +22,9 @@ namespace radlab {
 enum class RowMode { kCached, kOnTheFly };
 
 struct ProblemSpec {
-  std::string scene;  // builtin:NAME[:k=v,...] or a file
-  MeshOptions mesh;   // --subdiv / --element-size
+  std::string scene;           // builtin:NAME[:k=v,...] or a file
+  bool keep_overlaps = false;  // coincident polygons as they are (scene/overlap.h)
+  MeshOptions mesh;            // --subdiv / --element-size
   std::string ff_method = "raycast";
   std::vector<std::string> ff_set;  // --ff-set k=v
   Precision precision = Precision::kFloat;

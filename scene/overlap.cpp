@@ -174,7 +174,7 @@ OverlapReport resolve_coincident_polygons(Scene& scene, bool keep) {
               ++report.same_facing;
               report.overlap_area += shared;
               if (keep) {
-                report.warnings.push_back(what + "; kept as they are (keep_overlaps)");
+                report.warnings.push_back(what + "; kept as they are (--keep-overlaps)");
                 continue;
               }
               std::vector<std::vector<Vec3>> next;
