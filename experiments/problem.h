@@ -54,6 +54,8 @@ struct Problem {
   RowSumCheck used_row_sums;          // the same for the matrix the solvers use
   std::unique_ptr<System> system;     // rows from the matrix, or on the fly (RowMode)
   std::optional<Reference> reference;
+  // Where the cache holds (or would hold) the matrix and reference; empty without a cache.
+  std::string matrix_cache_file, reference_cache_file;
 
   const Scene& scene() const { return loaded.scene; }
   bool has_matrix() const { return matrix.size() > 0; }
