@@ -22,6 +22,9 @@ void add_scene_options(CLI::App& command, SceneOptions& o) {
                      "patch per input polygon) or size (patches of edge --patch-size)");
   command.add_option("--patch-size", o.patch_size,
                      "patch edge length in metres, with --patches size");
+  command.add_flag("--keep-overlaps", o.keep_overlaps,
+                   "keep coincident same-facing polygons as they are (default: the later one "
+                   "loses the overlap, with a warning)");
 }
 
 void add_form_factor_options(CLI::App& command, FormFactorOptions& o, bool with_mode) {
@@ -43,6 +46,7 @@ ProblemSpec make_spec(const SceneOptions& scene, const FormFactorOptions& ff) {
   spec.scene = scene.scene;
   spec.mesh.subdivisions = scene.subdiv;
   spec.mesh.element_size = scene.element_size;
+  spec.keep_overlaps = scene.keep_overlaps;
   if (scene.subdiv < 1)
     throw UsageError("--subdiv must be >= 1, got " + std::to_string(scene.subdiv));
   if (scene.element_size < 0)

@@ -25,6 +25,12 @@ void add_formfactors_command(CLI::App& app) {
     auto problem = prepare_problem(spec);
     std::printf("method       %s (%s)\n", spec.ff_method.c_str(), problem->ff_parameters.c_str());
     std::printf("elements     %zu\n", problem->mesh.size());
+    const ValidationReport& report = problem->loaded.report;
+    std::printf(
+        "repairs      %d degenerate polygons dropped, %d split into triangles, %d coincident "
+        "same-facing overlaps removed (%d polygons dropped, %d cut), %d back-to-back kept\n",
+        report.dropped, report.triangulated, report.overlaps.same_facing, report.overlaps.dropped,
+        report.overlaps.clipped, report.overlaps.back_to_back);
     std::printf(
         "time         %.3f s on %d threads%s\n", problem->build.seconds, problem->build.threads,
         problem->build.cached
@@ -41,6 +47,17 @@ void add_formfactors_command(CLI::App& app) {
     } else {
       std::printf("diagnostics  %s\n", problem->diagnostics.summary().c_str());
     }
+    // The row-sum check (formfactor/diagnostics.h): rows above 1 + the method's stated error,
+    // with the worst rows' largest entries, their polygons and what makes each too large.
+    std::string basis;
+    stated_row_sum_error(*problem->method, &basis);
+    std::printf("stated error %s\n", basis.c_str());
+    std::printf("row sums     %s\n",
+                problem->row_sums.report(problem->scene(), problem->mesh).c_str());
+    if (problem->ff_parameters.find("symmetrise=true") != std::string::npos &&
+        !problem->used_row_sums.ok())
+      std::printf("symmetrised  %s\n",
+                  problem->used_row_sums.report(problem->scene(), problem->mesh).c_str());
     for (const std::string& note : problem->method->left_out())
       std::printf("left out     %s\n", note.c_str());
     if (!out->empty()) {

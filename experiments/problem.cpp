@@ -5,9 +5,49 @@
 #include "core/progress.h"
 #include "experiments/reference_cache.h"
 #include "formfactor/matrix_cache.h"
+#include "formfactor/raycast.h"
 
 namespace radlab {
 namespace {
+
+// The row-sum check of every dense build (formfactor/diagnostics.h): rows above 1 + the method's
+// stated error are reported with their worst entries and polygons. `used`: the matrix the
+// solvers use (symmetrised); else the method's own.
+void check_row_sums(Problem& problem, bool used) {
+  std::function<double(size_t, size_t)> unoccluded;
+  if (auto* raycast = dynamic_cast<const RaycastFormFactors*>(problem.method.get()))
+    unoccluded = [raycast](size_t i, size_t j) { return raycast->unoccluded_pair(i, j); };
+  RowSumCheck& check = used ? problem.used_row_sums : problem.row_sums;
+  check = check_row_sums(problem.matrix, problem.scene(), problem.mesh,
+                         stated_row_sum_error(*problem.method), unoccluded);
+  if (!check.ok())
+    log::warning(std::string(used ? "form factors (symmetrised): " : "form factors: ") +
+                 check.report(problem.scene(), problem.mesh));
+}
+
+// The reference solves the system it is given; a system no planar scene can have is refused
+// here, before minutes of work, rather than blamed on the spectral radius afterwards: rows of the
+// method's own matrix above 1 + its stated error, or a matrix that does not carry the emitters'
+// light (gathered power far from what the emitters' rows send: raw hemicubes missing a tiny
+// lamp). Symmetrised rows above the limit only warn (check_row_sums): symmetrising an aliased
+// hemicube moves form factor between rows (docs/formfactors.md).
+void refuse_unphysical(const Problem& problem) {
+  if (!problem.row_sums.ok())
+    throw NumericalError("refusing to solve: the form factors are unphysical, " +
+                         problem.row_sums.report(problem.scene(), problem.mesh) +
+                         "\n(docs/scenes.md lists the causes and repairs)");
+  const double ratio = emitted_power_ratio(problem.matrix, problem.scene(), problem.mesh);
+  char buffer[300];
+  std::snprintf(buffer, sizeof buffer,
+                "the matrix lets the elements gather %.3g times the power the emitters' rows send "
+                "(1 when reciprocal; reciprocity defect relative %.3g)",
+                ratio, problem.diagnostics.reciprocity_defect_relative);
+  if (!(ratio > 0.5 && ratio < 2.0))
+    throw NumericalError(std::string("refusing to solve: ") + buffer +
+                         "; the emitters' light does not reach the system (an emitter too small "
+                         "for the method's rows?); use a dense symmetrised matrix or raycast");
+  if (std::abs(ratio - 1.0) > 0.1) log::warning(std::string("form factors: ") + buffer);
+}
 
 // The float storage of a double matrix: every entry rounded to nearest.
 FormFactorMatrix round_to_float(const FormFactorMatrix& F) {
@@ -25,7 +65,7 @@ FormFactorMatrix round_to_float(const FormFactorMatrix& F) {
 std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
   auto problem = std::make_unique<Problem>();
   problem->spec = spec;
-  problem->loaded = load_scene(spec.scene);
+  problem->loaded = load_scene(spec.scene, true, spec.keep_overlaps);
   if (spec.require_emitter) require_emitter(problem->scene());
   if (spec.mesh.subdivisions < 1) throw UsageError("--subdiv must be >= 1");
   if (spec.mesh.element_size < 0) throw UsageError("--element-size must be > 0");
@@ -97,6 +137,7 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
         problem->raw_diagnostics.negative_entries > 0)
       throw NumericalError("form factors '" + spec.ff_method +
                            "': " + problem->raw_diagnostics.summary());
+    check_row_sums(*problem, false);
     if (cache && !problem->build.cached && cache->store(key, problem->matrix, problem->build))
       problem->build.cache_file = cache->path(key).string();
     building.reset();
@@ -118,9 +159,11 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
                 (symmetrise_ff && precision == Precision::kFloat ? ", " : "") +
                 (precision == Precision::kFloat ? "stored in float" : "") +
                 "): " + problem->diagnostics.summary());
+      check_row_sums(*problem, true);
     } else {
       problem->diagnostics = problem->raw_diagnostics;
       log::info("form factors: " + problem->diagnostics.summary());
+      problem->used_row_sums = problem->row_sums;
     }
   }
 
@@ -178,8 +221,14 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
       computing = references->lock(reference_key);
       problem->reference = references->load(reference_key, cached, certified, {});
     }
+    refuse_unphysical(*problem);
     if (!problem->reference) {
-      problem->reference = compute_reference(cached, certified);
+      try {
+        problem->reference = compute_reference(cached, certified);
+      } catch (const NumericalError& e) {  // name F's row sums beside the spectral radius
+        throw NumericalError(std::string(e.what()) + " [" + problem->used_row_sums.headline() +
+                             "]");
+      }
       if (references) references->store(reference_key, *problem->reference);
     }
     problem->reference->system =

@@ -23,8 +23,9 @@ namespace radlab {
 enum class RowMode { kCached, kOnTheFly };
 
 struct ProblemSpec {
-  std::string scene;  // builtin:NAME[:k=v,...] or a file
-  MeshOptions mesh;   // --subdiv / --element-size
+  std::string scene;           // builtin:NAME[:k=v,...] or a file
+  bool keep_overlaps = false;  // coincident polygons as they are (scene/overlap.h)
+  MeshOptions mesh;            // --subdiv / --element-size
   std::string ff_method = "raycast";
   std::vector<std::string> ff_set;  // --ff-set k=v
   Precision precision = Precision::kFloat;
@@ -54,6 +55,8 @@ struct Problem {
   BuildReport build;
   MatrixDiagnostics diagnostics;      // of the matrix the solvers use (symmetrised if asked)
   MatrixDiagnostics raw_diagnostics;  // of the matrix as the method computed it
+  RowSumCheck row_sums;               // rows of the computed matrix above 1 + stated error
+  RowSumCheck used_row_sums;          // the same for the matrix the solvers use
   std::unique_ptr<System> system;     // rows from the matrix, or on the fly (RowMode)
   std::optional<Reference> reference;
   // Where the cache holds (or would hold) the matrix and reference; empty without a cache.

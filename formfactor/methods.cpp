@@ -14,6 +14,7 @@ const std::vector<FormFactorMethodInfo>& form_factor_methods() {
        "Lambert point-to-polygon formula integrated over i, times an Embree visibility fraction",
        {{"tolerance", "1e-4: relative quadrature error per pair"},
         {"rays", "16: visibility rays per pair that can be occluded"},
+        {"max_rays", "4096: rays for partly occluded pairs with large F (more as F grows)"},
         {"seed", "0: seed of the jittered visibility samples"},
         {"max_order", "8: largest fixed Gauss rule per axis before adaptive subdivision"},
         {"shafts", "true: shaft culling (no rays where nothing can block); false to measure it"}}},

@@ -14,6 +14,7 @@ RaycastOptions RaycastOptions::from(ParamBag& bag) {
   RaycastOptions o;
   o.tolerance = bag.get_double("tolerance", o.tolerance);
   o.rays = int(bag.get_int("rays", o.rays));
+  o.max_rays = int(bag.get_int("max_rays", std::max(o.max_rays, o.rays)));
   o.seed = uint64_t(bag.get_int("seed", 0));
   o.max_order = int(bag.get_int("max_order", o.max_order));
   o.shafts = bag.get_bool("shafts", o.shafts);
@@ -26,14 +27,17 @@ void RaycastOptions::validate() const {
     throw UsageError("raycast: tolerance must lie in (0,1), got " + std::to_string(tolerance));
   if (rays < 1 || rays > 4096)
     throw UsageError("raycast: rays must lie in [1,4096], got " + std::to_string(rays));
+  if (max_rays < rays || max_rays > 4096)
+    throw UsageError("raycast: max_rays must lie in [rays,4096], got " + std::to_string(max_rays));
   if (max_order < 1 || max_order > 32)
     throw UsageError("raycast: max_order must lie in [1,32], got " + std::to_string(max_order));
 }
 
 std::string RaycastOptions::canonical() const {
   char buffer[200];
-  std::snprintf(buffer, sizeof buffer, "max_order=%d,rays=%d,seed=%llu,shafts=%s,tolerance=%.6g",
-                max_order, rays, static_cast<unsigned long long>(seed), shafts ? "true" : "false",
+  std::snprintf(buffer, sizeof buffer,
+                "max_order=%d,max_rays=%d,rays=%d,seed=%llu,shafts=%s,tolerance=%.6g", max_order,
+                max_rays, rays, static_cast<unsigned long long>(seed), shafts ? "true" : "false",
                 tolerance);
   return buffer;
 }
@@ -43,7 +47,7 @@ RaycastFormFactors::RaycastFormFactors(const Scene& scene, const Mesh& mesh, Ray
       options_((options.validate(), options)),
       order_rule_(options.tolerance, options.max_order),
       plane_epsilon_(plane_epsilon(mesh)),
-      visibility_(scene, mesh, options.rays, options.seed, options.shafts) {
+      visibility_(scene, mesh, options.rays, options.seed, options.shafts, options.max_rays) {
   radius_.resize(mesh.size());
   for (size_t e = 0; e < mesh.size(); ++e) {
     double r = 0.0;
@@ -93,7 +97,9 @@ double RaycastFormFactors::unoccluded(size_t i, size_t j, RowCost& cost) const {
   mesh_.corners(i, from);
   mesh_.corners(j, to);
   // Integrate only over the part of i in front of j's plane (no jump in the integrand).
-  const double kept = clip_to_front(from, mesh_.centroid[j], mesh_.normal[j], plane_epsilon_);
+  double lowest = 0.0;
+  const double kept =
+      clip_to_front(from, mesh_.centroid[j], mesh_.normal[j], plane_epsilon_, &lowest);
   if (kept <= 0.0) return 0.0;
   const PolygonRef a{from, mesh_.normal[i]};
   const PolygonRef b{to, mesh_.normal[j]};
@@ -107,7 +113,47 @@ double RaycastFormFactors::unoccluded(size_t i, size_t j, RowCost& cost) const {
   // The floor is 1e-14 of F_ij, the result after scaling by `kept`: a sliver of i kept in front
   // of j's plane (a corner touching it) then stops at once instead of refining cells whose whole
   // contribution is below 1e-14.
-  double f = polygon_form_factor_adaptive(a, b, options_.tolerance, 1e-14 / kept, 10, &evaluations);
+  // Levels: the integrand of a pair whose nearest corner is `lowest` above j's plane varies on
+  // that scale, so cells must get down to it: log2(diameter / lowest) levels and 3 more for the
+  // rule's own accuracy, at least 10 (the touching case, where the global budget decides), at
+  // most 30. With a fixed 10 a pair 1 mm apart stopped at cells of 1 mm, 2.4e-3 off for a
+  // tolerance of 1e-4 (tests/ffvalid_test.cpp).
+  const double diameter = 2.0 * radius_[i];
+  const int depth =
+      lowest > 0.0
+          ? std::clamp(int(std::ceil(std::log2(std::max(diameter / lowest, 1.0)))) + 3, 10, 30)
+          : 10;
+  // A pair much closer than its size (lowest < diameter / 64): the integrand falls off within
+  // ~lowest of j's outline, a layer the adaptive rule's 3x3 points on large cells never land in,
+  // so it converges falsely (1 mm apart: 1.9e-3 off). Start it from cells of ~16 lowest (at most
+  // 64 x 64 per fan triangle), where the layer shows in the cells' differences.
+  const int split = lowest > 0.0 ? int(std::min(64.0, std::ceil(diameter / (16.0 * lowest)))) : 1;
+  double f = 0.0;
+  if (split >= 4) {
+    const double total = geometry::area(from);
+    thread_local std::vector<Vec3> piece(3);
+    for (size_t t = 1; t + 1 < from.size(); ++t) {
+      const Vec3 o = from[0], u = (from[t] - o) / double(split),
+                 v = (from[t + 1] - o) / double(split);
+      for (int p = 0; p < split; ++p)
+        for (int q = 0; p + q < split; ++q)
+          for (int upper = 0; upper < (p + q + 1 < split ? 2 : 1); ++upper) {
+            if (upper == 0)
+              piece = {o + double(p) * u + double(q) * v, o + double(p + 1) * u + double(q) * v,
+                       o + double(p) * u + double(q + 1) * v};
+            else
+              piece = {o + double(p + 1) * u + double(q) * v,
+                       o + double(p + 1) * u + double(q + 1) * v,
+                       o + double(p) * u + double(q + 1) * v};
+            const double share = geometry::area(piece) / total;
+            f += share * polygon_form_factor_adaptive({piece, mesh_.normal[i]}, b,
+                                                      options_.tolerance, 1e-14 / kept, depth,
+                                                      &evaluations);
+          }
+    }
+  } else {
+    f = polygon_form_factor_adaptive(a, b, options_.tolerance, 1e-14 / kept, depth, &evaluations);
+  }
   cost.kernel_evaluations += uint64_t(evaluations);
   return kept * f;
 }
@@ -141,6 +187,12 @@ double RaycastFormFactors::pair(size_t i, size_t j, RowCost& cost) const {
   const double f = unoccluded(i, j, cost);
   if (f <= 0.0) return 0.0;
   return f * visibility_.fraction(i, j, cost);
+}
+
+double RaycastFormFactors::unoccluded_pair(size_t i, size_t j) const {
+  RowCost cost;
+  if (i == j || !pair_faces(mesh_, i, j, plane_epsilon_)) return 0.0;
+  return unoccluded(i, j, cost);
 }
 
 void RaycastFormFactors::row(size_t i, std::span<double> out, RowCost& cost) const {

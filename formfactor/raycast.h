@@ -37,6 +37,7 @@ namespace radlab {
 struct RaycastOptions {
   double tolerance = 1e-4;  // relative quadrature error per pair; smaller costs more points
   int rays = 16;            // visibility rays per occludable pair; the noise in V falls as 1/sqrt
+  int max_rays = 4096;      // up to this many for partly occluded pairs with large F (rays_for)
   uint64_t seed = 0;        // jitter of the visibility sample points
   int max_order = 8;        // largest fixed Gauss rule per axis before adaptive subdivision
   bool shafts = true;       // shaft culling: no rays for pairs nothing can block (same result,
@@ -61,6 +62,8 @@ class RaycastFormFactors final : public FormFactorMethod {
   // One pair, for tests and the catalogue comparisons.
   double pair(size_t i, size_t j, RowCost& cost) const;
   bool casts_rays() const { return visibility_.casts_rays(); }
+  // F^u_ij, the pair without visibility (0 when it faces away or is coplanar), for diagnostics.
+  double unoccluded_pair(size_t i, size_t j) const;
   // The order of the Gauss rule the pair's F^u uses (order x order points per fan triangle or
   // quad), or 0 when it goes adaptive or has nothing in front of j's plane. For benchmarks.
   int fixed_order(size_t i, size_t j) const;

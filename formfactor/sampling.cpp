@@ -16,6 +16,11 @@ StratifiedSampler::StratifiedSampler(std::span<const Vec3> c, int strata_per_sid
     e1_ = c[1] - c[0];
     e3_ = c[3] - c[0];
     twist_ = c[2] - c[1] - c[3] + c[0];
+    // Exact mean of the bilinear Jacobian |(e1 + t w) x (e3 + s w)| over the unit square: it is
+    // the quad's area (two triangles); 0 for a degenerate quad, where every point weighs the same.
+    jacobian_mean_ = 0.5 * (glm::length(glm::cross(c[1] - c[0], c[2] - c[0])) +
+                            glm::length(glm::cross(c[2] - c[0], c[3] - c[0])));
+    if (!(jacobian_mean_ > 0.0)) twist_ = Vec3(0.0), jacobian_mean_ = 1.0;
   } else if (c.size() > 4) {
     double total = 0.0;
     for (size_t f = 1; f + 1 < c.size(); ++f) {

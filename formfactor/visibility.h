@@ -2,14 +2,18 @@
 //
 //   V_ij = 1                        the scene is a convex enclosure, or the pair's shaft holds no
 //                                   polygon that could block it (shaft.h): no rays;
-//   V_ij = share of unblocked rays  otherwise: `rays` Embree occlusion rays between stratified,
-//                                   jittered points on the part of i in front of j's plane and
+//   V_ij = kernel-weighted share     otherwise: `rays` Embree occlusion rays between stratified,
+//          of unblocked rays         jittered points on the part of i in front of j's plane and
 //                                   the part of j in front of i's (the region the unoccluded
 //                                   integral covers: clip_to_front, polygon_integral.h), paired
-//                                   by a random permutation; hits on i's and j's own polygons are
-//                                   ignored (a segment meets them only at its ends: such hits are
-//                                   rounding on grazing rays; the Embree filter that drops them
-//                                   is attached only to pairs where they can occur).
+//                                   by a random permutation, each weighted by the form-factor
+//                                   kernel cos cos / r^2 of its two ends (an equal-weight share
+//                                   overestimates F when the near, heavy part of a large element
+//                                   is the part that is hidden: docs/scenes.md); hits on i's and
+//                                   j's own polygons are ignored (a segment meets them only at its
+//                                   ends: such hits are rounding on grazing rays; the Embree filter
+//                                   that drops them is attached only to pairs where they can
+//                                   occur).
 //
 // The points depend only on (seed, min(i,j), max(i,j)) — each element is clipped by the other's
 // plane whichever row asks — and the shaft decision only on the unordered pair, so V_ij = V_ji
@@ -31,7 +35,10 @@ namespace radlab {
 class Visibility {
  public:
   // `shaft_culling` false traces every pair that is not in a convex enclosure (for comparisons).
-  Visibility(const Scene& scene, const Mesh& mesh, int rays, uint64_t seed, bool shaft_culling);
+  // `max_rays` > rays: partly occluded pairs with large form factors get up to that many
+  // (rays_for in visibility.cpp); rays = max_rays: every pair gets `rays`.
+  Visibility(const Scene& scene, const Mesh& mesh, int rays, uint64_t seed, bool shaft_culling,
+             int max_rays = 0);
   ~Visibility();
 
   // V_ij in [0,1]; counts the pair in cost.pairs_unoccluded or cost.pairs_traced (and its rays).
@@ -62,7 +69,8 @@ class Visibility {
   void remember_pairs(bool on) const;
 
  private:
-  int trace(size_t i, size_t j, RowCost& cost) const;  // unblocked rays of the pair
+  int trace(size_t i, size_t j, int R, RowCost& cost) const;  // V in steps of 1/kSteps, R rays
+  int rays_for(size_t i, size_t j) const;                     // rays for a partly occluded pair
   void compute_own_polygon_margins();
   bool leaves_own_polygon(size_t from, double height) const;
   // The parts of lo and hi the rays join (each clipped to the other's front), with the least
@@ -76,6 +84,7 @@ class Visibility {
 
   const Mesh& mesh_;
   int rays_;
+  int max_rays_ = 0;
   uint64_t seed_;
   double plane_epsilon_ = 0.0;
   bool convex_enclosure_ = false;
@@ -84,10 +93,12 @@ class Visibility {
   std::vector<double> off_plane_;        // per element: its polygon's distance from its plane
   double float_error_ = 0.0;             // rounding of coordinates to Embree's floats
   OwnPolygonFilter own_polygon_filter_ = OwnPolygonFilter::automatic;
-  // remember_pairs: per unordered pair (index hi (hi - 1) / 2 + lo), 0 unknown, else the
-  // unblocked rays + 1, with kTracedFlag when the pair needed rays. rays <= 4096 fits below it.
-  // kBusy while one thread traces the pair.
-  static constexpr uint16_t kTracedFlag = 0x4000, kCountMask = 0x3FFF, kBusy = 0xFFFF;
+  // V is kept in steps of 1/kSteps (2^14: 6e-5, exact for equal-weight fractions of up to 4096
+  // rays), so that the memo below holds it in 15 bits and every row sees the same V.
+  // remember_pairs: per unordered pair (index hi (hi - 1) / 2 + lo), 0 unknown, else V's steps
+  // + 1, with kTracedFlag when the pair needed rays; kBusy while one thread traces the pair.
+  static constexpr int kSteps = 1 << 14;
+  static constexpr uint16_t kTracedFlag = 0x8000, kCountMask = 0x7FFF, kBusy = 0xFFFF;
   mutable std::unique_ptr<std::atomic<uint16_t>[]> memo_;
 };
 

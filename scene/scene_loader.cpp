@@ -10,7 +10,7 @@
 
 namespace radlab {
 
-LoadedScene load_scene(const std::string& spec, bool print) {
+LoadedScene load_scene(const std::string& spec, bool print, bool keep_overlaps) {
   LoadedScene loaded;
   if (text::starts_with(spec, "builtin:")) {
     loaded.scene = make_builtin_scene(spec.substr(8));
@@ -30,7 +30,7 @@ LoadedScene load_scene(const std::string& spec, bool print) {
     }
     loaded.scene.name = spec;
   }
-  loaded.report = validate_scene(loaded.scene);
+  loaded.report = validate_scene(loaded.scene, keep_overlaps);
   if (print) print_warnings(loaded.report);
   return loaded;
 }

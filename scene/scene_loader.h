@@ -15,6 +15,8 @@ struct LoadedScene {
 };
 
 // Loads and validates; prints the validation warnings unless `print_warnings` is false.
-LoadedScene load_scene(const std::string& spec, bool print_warnings = true);
+// `keep_overlaps`: coincident polygons are left as they are (validate_scene).
+LoadedScene load_scene(const std::string& spec, bool print_warnings = true,
+                       bool keep_overlaps = false);
 
 }  // namespace radlab

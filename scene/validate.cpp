@@ -95,7 +95,7 @@ bool degenerate(const std::vector<Vec3>& v) {
 
 }  // namespace
 
-ValidationReport validate_scene(Scene& scene) {
+ValidationReport validate_scene(Scene& scene, bool keep_overlaps) {
   ValidationReport report;
   for (const Material& m : scene.materials) check_material(m);
   std::vector<Polygon> kept;
@@ -137,6 +137,10 @@ ValidationReport validate_scene(Scene& scene) {
     }
   }
   scene.polygons = std::move(kept);
+  if (!scene.polygons.empty()) {
+    report.overlaps = resolve_coincident_polygons(scene, keep_overlaps);
+    for (std::string& w : report.overlaps.warnings) report.warnings.push_back(std::move(w));
+  }
   if (scene.polygons.empty()) throw InputError(scene.name + ": the scene has no usable polygons");
   return report;
 }
@@ -155,7 +159,9 @@ void print_warnings(const ValidationReport& report) {
   if (report.warnings.size() > shown)
     log::warning(std::to_string(report.warnings.size() - shown) + " more warnings like these (" +
                  std::to_string(report.dropped) + " polygons dropped, " +
-                 std::to_string(report.triangulated) + " split in all)");
+                 std::to_string(report.triangulated) + " split, " +
+                 std::to_string(report.overlaps.same_facing) + " coincident same-facing and " +
+                 std::to_string(report.overlaps.back_to_back) + " back-to-back overlaps in all)");
 }
 
 }  // namespace radlab

@@ -6,12 +6,15 @@
 // - fewer than 3 distinct vertices or zero area: the polygon is dropped with a warning naming it
 //   (MGF and OBJ exports often contain such slivers; they carry no area, so no light);
 // - non-planar beyond kPlanarityTolerance x diameter: split into triangles (each planar);
-// - planar but non-convex: split into triangles by ear clipping.
+// - planar but non-convex: split into triangles by ear clipping;
+// - coincident overlapping polygons (scene/overlap.h): same-facing overlaps removed from the later
+//   polygon unless `keep_overlaps`, back-to-back ones reported.
 #pragma once
 
 #include <string>
 #include <vector>
 
+#include "scene/overlap.h"
 #include "scene/scene.h"
 
 namespace radlab {
@@ -23,12 +26,13 @@ inline constexpr double kPlanarityTolerance = 1e-4;
 
 struct ValidationReport {
   std::vector<std::string> warnings;
-  int dropped = 0;       // degenerate polygons removed
-  int triangulated = 0;  // non-planar or non-convex polygons split into triangles
+  int dropped = 0;         // degenerate polygons removed
+  int triangulated = 0;    // non-planar or non-convex polygons split into triangles
+  OverlapReport overlaps;  // coincident polygons found (and repaired unless kept)
 };
 
 // Validates and repairs `scene` in place. Throws InputError for what cannot be repaired.
-ValidationReport validate_scene(Scene& scene);
+ValidationReport validate_scene(Scene& scene, bool keep_overlaps = false);
 
 // Throws InputError if nothing in the scene emits.
 void require_emitter(const Scene& scene);

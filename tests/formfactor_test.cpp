@@ -233,9 +233,10 @@ TEST(RaycastFormFactors, CornellBoxCastsRaysAndStaysHealthy) {
   EXPECT_EQ(d.non_finite_entries, 0u);
   // Open box: light escapes through the front, so no row sums to more than 1 — but the tall
   // block's back face sees none of the front and sums to exactly 1, so quadrature error (1e-4
-  // relative per entry, hence on the sum) may lift it slightly. (Before the visibility rays were
-  // confined to the integrated parts of the elements, wrongly blocked rays kept it below 1.)
-  EXPECT_LE(d.row_sum_max, 1.0 + options.tolerance);
+  // relative per entry, hence on the sum) and the sampling error of V (4 rays here) may lift it:
+  // the method's stated row-sum error covers both (docs/formfactors.md; 1.0015 measured with
+  // kernel-weighted rays, which are unbiased but noisier at 4 rays than equal weights).
+  EXPECT_LE(d.row_sum_max, 1.0 + stated_row_sum_error(ff));
   EXPECT_GT(d.row_sum_min, 0.0);
 }
 
@@ -444,9 +445,10 @@ TEST(ExactFormFactors, RefusesAScenThatCanOccludeUnlessAskedForRays) {
   EXPECT_GT(report.cost.pairs_traced, 0u);
   EXPECT_GT(report.cost.pairs_unoccluded, 0u);
   EXPECT_EQ(d.negative_entries, 0u);
-  // Open box: no row above 1, up to the quadrature tolerance (the tall block's back face sees none
-  // of the open front: its row sums to exactly 1, and quadrature error may fall either side).
-  EXPECT_LE(d.row_sum_max, 1.0 + options.tolerance);
+  // Open box: no row above 1, up to the stated error: quadrature tolerance and, with 4 rays, the
+  // sampling error of V (the tall block's back face sees none of the open front: its row sums to
+  // exactly 1, and both errors may fall either side).
+  EXPECT_LE(d.row_sum_max, 1.0 + stated_row_sum_error(ff));
 
   // The factory applies the same rule, and rejects rays/seed without visibility=rays.
   ParamBag bag("exact");
@@ -1008,6 +1010,7 @@ TEST(ShaftCulling, SoundSymmetricAndWorthIt) {
 
   RaycastOptions with, without;
   without.shafts = false;
+  with.max_rays = without.max_rays = with.rays;  // a fixed count, so that rays count pairs
   BuildReport a, b;
   RaycastFormFactors culled(scene, mesh, with), plain(scene, mesh, without);
   const FormFactorMatrix culled_m = build_matrix(culled, mesh.size(), Precision::kFloat, a);

@@ -1,0 +1,179 @@
+// Physically valid form factors (issue 16): coincident polygons found and repaired on loading,
+// the row-sum check of every build naming what is wrong, the visibility estimate weighing its
+// sample points by their density, and the small RenderPark scenes within 1 + the stated error.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <glm/geometric.hpp>
+
+#include "formfactor/diagnostics.h"
+#include "formfactor/matrix.h"
+#include "formfactor/raycast.h"
+#include "formfactor/sampling.h"
+#include "scene/geometry.h"
+#include "scene/mesh.h"
+#include "scene/overlap.h"
+#include "scene/scene_loader.h"
+#include "scene/validate.h"
+#include "tests/test_support.h"
+
+namespace radlab {
+namespace {
+
+using testing::scene_of;
+using testing::square_z;
+
+std::vector<Vec3> rectangle_z(double x0, double x1, double height) {
+  return {{x0, 0, height}, {x1, 0, height}, {x1, 1, height}, {x0, 1, height}};
+}
+
+// A duplicate is dropped, a partial overlap cut to the part outside the earlier polygon (area
+// conserved: 1.5 - 1 = 0.5 left of the later one), a back-to-back pair kept; each is a warning
+// naming both polygons. keep_overlaps leaves all of it.
+TEST(CoincidentPolygons, DuplicatesDroppedOverlapsCutBackToBackKept) {
+  Scene scene = scene_of({square_z(0.0, true), square_z(0.0, true), rectangle_z(0.5, 1.5, 0.0),
+                          square_z(0.0, false), square_z(1.0, false)});
+  for (size_t p = 0; p < scene.polygons.size(); ++p)
+    scene.polygons[p].origin = "test.mgf:" + std::to_string(10 + p);
+  Scene kept = scene;
+  const ValidationReport report = validate_scene(scene);
+  EXPECT_EQ(report.overlaps.same_facing, 2);  // the duplicate, and the rectangle on the first
+  EXPECT_EQ(report.overlaps.dropped, 1);
+  EXPECT_EQ(report.overlaps.clipped, 1);
+  EXPECT_GE(report.overlaps.back_to_back, 1);
+  double area = 0.0;
+  for (const Polygon& p : scene.polygons)
+    if (glm::dot(geometry::unit_normal(p.vertices), Vec3(0, 0, 1)) > 0.5 &&
+        std::abs(p.vertices[0].z) < 1e-12)
+      area += geometry::area(p.vertices);
+  EXPECT_NEAR(area, 1.5, 1e-12);  // the union of the upward faces at z = 0
+  bool named = false;
+  for (const std::string& w : report.warnings)
+    named |= w.find("test.mgf:10") != std::string::npos &&
+             w.find("test.mgf:11") != std::string::npos && w.find("dropped") != std::string::npos;
+  EXPECT_TRUE(named);
+  const ValidationReport as_is = validate_scene(kept, true);
+  EXPECT_EQ(kept.polygons.size(), 5u);
+  EXPECT_EQ(as_is.overlaps.same_facing, 3);  // kept, the rectangle overlaps both copies
+}
+
+TEST(CoincidentPolygons, SubtractAndOverlapAreaOfConvexPolygons) {
+  const std::vector<Vec3> a = rectangle_z(0, 2, 0), b = rectangle_z(0.5, 1.0, 0);
+  EXPECT_NEAR(geometry::overlap_area(a, b), 0.5, 1e-12);
+  double left = 0.0;
+  for (const auto& piece : geometry::subtract_convex(a, b)) left += geometry::area(piece);
+  EXPECT_NEAR(left, 1.5, 1e-12);
+  EXPECT_NEAR(geometry::overlap_area(a, rectangle_z(3, 4, 0)), 0.0, 1e-15);
+}
+
+// The same surface twice (kept as it is): a row sees it twice and sums above 1; the check counts
+// the row and names the pair a coplanar overlap, with the polygons' origins.
+TEST(RowSumCheck, DuplicatedSurfaceIsCountedAndClassified) {
+  Scene scene = scene_of({square_z(0.0, true), square_z(0.1, false), square_z(0.1, false)});
+  for (size_t p = 0; p < scene.polygons.size(); ++p)
+    scene.polygons[p].origin = "dup.mgf:" + std::to_string(p + 1);
+  validate_scene(scene, true);
+  const Mesh mesh = build_mesh(scene, {});
+  RaycastFormFactors ff(scene, mesh, {});
+  BuildReport build;
+  const FormFactorMatrix m = build_matrix(ff, mesh.size(), Precision::kDouble, build);
+  const RowSumCheck check =
+      check_row_sums(m, scene, mesh, stated_row_sum_error(ff),
+                     [&](size_t i, size_t j) { return ff.unoccluded_pair(i, j); });
+  ASSERT_FALSE(check.ok());
+  EXPECT_EQ(check.rows_above, 1u);  // the floor: 2 x 0.827 (Howell C-11 at d = 0.1)
+  EXPECT_NEAR(check.row_sum_max, 2 * 0.826994522397, 1e-4);
+  ASSERT_EQ(check.worst.size(), 1u);
+  EXPECT_NE(check.worst[0].entries[0].cause.find("coplanar overlap"), std::string::npos);
+  const std::string text = check.report(scene, mesh);
+  EXPECT_NE(text.find("dup.mgf:2"), std::string::npos) << text;
+  EXPECT_NE(text.find("dup.mgf:3"), std::string::npos) << text;
+}
+
+// Gathered against sent emitter power: 1 under reciprocity, 0 when no row gathers from the lamp
+// (the black room of issue 11).
+TEST(RowSumCheck, EmittedPowerRatioSeesAMatrixThatMissesTheLamp) {
+  Scene scene = scene_of({square_z(0.0, true), square_z(1.0, false)}, 0.5, 0.0);
+  scene.materials.push_back(Material{"lamp", Rgb(0.0), Rgb(1.0)});
+  scene.polygons[1].material = 1;
+  const Mesh mesh = build_mesh(scene, {});
+  FormFactorMatrix m(2, Precision::kDouble);
+  m.set(0, 1, 0.2);
+  m.set(1, 0, 0.2);
+  EXPECT_NEAR(emitted_power_ratio(m, scene, mesh), 1.0, 1e-12);
+  m.set(0, 1, 0.0);  // the floor's row misses the lamp
+  EXPECT_EQ(emitted_power_ratio(m, scene, mesh), 0.0);
+}
+
+// Points of a non-parallelogram quad (what clipping a triangle leaves) are not uniform in area;
+// weighted by area_weight their mean is the centroid. Unweighted it is off by 0.06 here.
+TEST(StratifiedSampler, AreaWeightsMakeATrapezoidUniform) {
+  const std::vector<Vec3> trapezoid = {{0, 0, 0}, {4, 0, 0}, {3, 1, 0}, {1, 1, 0}};
+  const int m = 64;
+  const StratifiedSampler sampler(trapezoid, m);
+  ASSERT_FALSE(sampler.uniform());
+  Vec3 weighted(0.0), plain(0.0);
+  double total = 0.0;
+  for (int row = 0; row < m; ++row)
+    for (int column = 0; column < m; ++column) {
+      const uint32_t bits = 0x80008000u;  // the stratum's centre
+      const Vec3 p = sampler.point(column, row, bits);
+      const double w = sampler.area_weight(uint32_t(row * m + column), bits);
+      weighted += w * p, plain += p, total += w;
+    }
+  const Vec3 centroid = geometry::centroid(trapezoid);
+  EXPECT_NEAR(total / (m * m), 1.0, 1e-3);
+  EXPECT_NEAR(weighted.y / total, centroid.y, 1e-3);
+  EXPECT_GT(std::abs(plain.y / (m * m) - centroid.y), 0.03);
+}
+
+// Howell's C-11, parallel a x b rectangles at distance c, in a form that stays accurate for c << a.
+double parallel_rectangles(double a, double b, double c) {
+  const double X = a / c, Y = b / c;
+  const double X2 = X * X, Y2 = Y * Y;
+  const double log_term = 0.5 * (std::log1p(X2) + std::log1p(Y2) - std::log1p(X2 + Y2));
+  return 2.0 / (M_PI * X * Y) *
+         (log_term + X * std::sqrt(1 + Y2) * std::atan(X / std::sqrt(1 + Y2)) +
+          Y * std::sqrt(1 + X2) * std::atan(Y / std::sqrt(1 + X2)) - X * std::atan(X) -
+          Y * std::atan(Y));
+}
+
+// Near-touching pairs: unit squares 1 mm, 0.1 mm and 10 µm apart (issue 11: at 1 mm raycast was
+// off by 2.4e-3, 24x its tolerance, because the adaptive rule stopped at 10 levels, cells of
+// 1 mm). The relative error must be within the tolerance, 1e-4.
+TEST(RaycastNearPairs, ParallelSquaresAMillimetreApartMeetTheTolerance) {
+  for (double gap : {1e-3, 1e-4, 1e-5}) {
+    Scene scene = scene_of({square_z(0.0, true), square_z(gap, false)});
+    validate_scene(scene);
+    const Mesh mesh = build_mesh(scene, {});
+    RaycastFormFactors ff(scene, mesh, {});
+    const double truth = parallel_rectangles(1.0, 1.0, gap);
+    EXPECT_NEAR(ff.unoccluded_pair(0, 1) / truth - 1.0, 0.0, 1e-4) << gap << " " << truth;
+  }
+}
+
+// RenderPark's cube.mgf (a closed room, one element per polygon: 10 m walls, 6 m cabinets) with
+// the default raycast: no row above 1 + the stated error (before this work 1.023; 1.0099 now,
+// brute force puts its worst rows at 0.997-1.0002). office2 and corridor are left out: their
+// worst rows (1.075, 1.026) come from the visibility estimate's variance on pairs of a small
+// element close to a huge one (docs/scenes.md), which this work did not remove, and they take
+// ~10 s each.
+TEST(RenderParkRowSums, CubeWithinTheStatedError) {
+  const char* shared = std::getenv("RADLAB_SHARED_SCENES");
+  const std::string path = std::string(shared ? shared : "") + "/renderpark/cube.mgf";
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " not found";
+  const LoadedScene loaded = load_scene(path, false);
+  const Mesh mesh = build_mesh(loaded.scene, {});
+  RaycastFormFactors ff(loaded.scene, mesh, {});
+  BuildReport build;
+  const FormFactorMatrix m = build_matrix(ff, mesh.size(), Precision::kFloat, build);
+  const RowSumCheck check =
+      check_row_sums(m, loaded.scene, mesh, stated_row_sum_error(ff),
+                     [&](size_t i, size_t j) { return ff.unoccluded_pair(i, j); });
+  EXPECT_TRUE(check.ok()) << check.report(loaded.scene, mesh);
+}
+
+}  // namespace
+}  // namespace radlab
