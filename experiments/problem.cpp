@@ -31,11 +31,17 @@ void check_row_sums(Problem& problem, bool used) {
 // light (gathered power far from what the emitters' rows send: raw hemicubes missing a tiny
 // lamp). Symmetrised rows above the limit only warn (check_row_sums): symmetrising an aliased
 // hemicube moves form factor between rows (docs/formfactors.md).
-void refuse_unphysical(const Problem& problem) {
-  if (!problem.row_sums.ok())
-    throw NumericalError("refusing to solve: the form factors are unphysical, " +
-                         problem.row_sums.report(problem.scene(), problem.mesh) +
-                         "\n(docs/scenes.md lists the causes and repairs)");
+// With --ff-set unphysical=accept the first test only warns, and the certificate says so.
+void refuse_unphysical(const Problem& problem, bool accept_row_sums) {
+  if (!problem.row_sums.ok()) {
+    const std::string what = "the form factors are unphysical, " +
+                             problem.row_sums.report(problem.scene(), problem.mesh) +
+                             "\n(docs/scenes.md lists the causes and repairs)";
+    if (!accept_row_sums)
+      throw NumericalError("refusing to solve: " + what +
+                           "; --ff-set unphysical=accept solves it anyway, labelled as such");
+    log::warning("solving anyway (unphysical=accept): " + what);
+  }
   const double ratio = emitted_power_ratio(problem.matrix, problem.scene(), problem.mesh);
   char buffer[300];
   std::snprintf(buffer, sizeof buffer,
@@ -80,6 +86,10 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
   // On by default for a dense matrix, so shooting, gathering, CG and the reference all solve the
   // same (reciprocal) system (docs/solvers.md); rows computed on the fly cannot be symmetrised.
   const bool symmetrise_ff = ff_bag.get_bool("symmetrise", spec.row_mode == RowMode::kCached);
+  // Generic: rows above 1 + the method's stated error are refused before the reference unless
+  // the user accepts them (then every certificate names the system as unphysical).
+  const bool accept_unphysical =
+      ff_bag.get_choice("unphysical", "refuse", {"refuse", "accept"}) == "accept";
   // Generic too: the stored precision, as --precision or --ff-set precision=... (the same thing).
   const std::string default_precision = spec.precision == Precision::kDouble ? "double" : "float";
   const std::string precision_name =
@@ -221,7 +231,7 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
       computing = references->lock(reference_key);
       problem->reference = references->load(reference_key, cached, certified, {});
     }
-    refuse_unphysical(*problem);
+    refuse_unphysical(*problem, accept_unphysical);
     if (!problem->reference) {
       try {
         problem->reference = compute_reference(cached, certified);
@@ -238,7 +248,11 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
                        : "") +
         (two_level ? "; two levels: K of " + spec.patches.canonical() + " (docs/solvers.md)"
                    : std::string()) +
-        (precision == Precision::kFloat ? "; solvers read it rounded to float" : "");
+        (precision == Precision::kFloat ? "; solvers read it rounded to float" : "") +
+        (accept_unphysical && !problem->row_sums.ok()
+             ? "; UNPHYSICAL: rows of F above 1 + the method's stated error, accepted with "
+               "unphysical=accept"
+             : "");
     computing.reset();
     progress.finish();
     log::info("reference: " + problem->reference->summary());
