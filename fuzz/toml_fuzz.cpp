@@ -1,0 +1,8 @@
+// libFuzzer harness for fuzz::run_toml (fuzz/targets.h says what it reads and what counts as a
+// finding). Seeds: fuzz/corpus/toml; run with scripts/fuzz.sh.
+#include "fuzz/targets.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  radlab::fuzz::run_toml(data, size);
+  return 0;
+}
