@@ -5,7 +5,19 @@
 #include <cstdlib>
 #include <fstream>
 
+#include "core/limits.h"
+
 namespace radlab::fuzz {
+
+void set_fuzz_limits() {
+  Limits& l = limits();
+  l.elements = 2e4;
+  l.memory_gb = 0.1;
+  l.pairs = 2e6;
+  l.polygons = 2e4;
+  l.runs = 1e3;
+  l.images_gb = 0.1;
+}
 
 std::vector<std::string> split_parts(const uint8_t* data, size_t size, size_t parts) {
   static constexpr std::string_view kMarker = "#--8<--\n";

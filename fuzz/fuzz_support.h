@@ -20,6 +20,11 @@
 
 namespace radlab::fuzz {
 
+// Lowers the resource limits (core/limits.h) for fuzzing: inputs then reach the refusals with
+// little work, and a timeout means work that no estimate bounds (a real hang), not a large but
+// allowed scene. Called once from each harness's LLVMFuzzerInitialize.
+void set_fuzz_limits();
+
 // Splits at the marker line; always returns at least `parts` entries (missing ones empty).
 std::vector<std::string> split_parts(const uint8_t* data, size_t size, size_t parts);
 

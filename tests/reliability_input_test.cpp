@@ -134,10 +134,12 @@ TEST(WorkLimits, NestedIncludesAreBoundedInCount) {
 }
 
 TEST(WorkLimits, ArrayInstancesAreComputedIncrementally) {
-  // `xf -a N` built its N instances as N matrix powers, O(N^2) products: 30,000 instances took
-  // 4.5e8 products (minutes). Incrementally they are N products. Instance k sits at k * t.
+  // `xf -a N` built its N instances as N matrix powers, O(N^2) products: 60,000 instances took
+  // 1.8e9 4x4 products (about a minute). Incrementally they are N products (well under a
+  // second; 20 s leaves room for a loaded machine and the sanitizer build). Instance k sits at
+  // k * t.
   TempDir dir;
-  const int n = 30000;
+  const int n = 60000;
   dir.write("a.mgf",
             "v a =\n p 0 0 0\nv b =\n p 1 0 0\nv c =\n p 0 1 0\nm w =\n rd 0.5\n"
             "xf -a " +
