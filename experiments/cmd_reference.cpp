@@ -2,6 +2,7 @@
 #include <cstdio>
 
 #include "core/log.h"
+#include "core/output_file.h"
 #include "experiments/cli_common.h"
 #include "experiments/outputs.h"
 
@@ -16,11 +17,13 @@ void add_reference_command(CLI::App& app) {
   add_form_factor_options(*command, *ff, false);
   command->add_option("--out", *out, "CSV element,area,B_r,B_g,B_b");
   command->callback([scene, ff, out]() {
+    if (!out->empty()) check_writable(*out);  // before the computation, not after it
     auto problem = prepare_problem(make_spec(*scene, *ff));
     const Reference& r = *problem->reference;
     std::printf("reference    %s\n", r.summary().c_str());
     std::printf("bound        ||B - B*||_inf <= %.6g  (%.3g of max B)\n", r.bound_inf,
                 r.bound_relative);
+    std::printf("certified    for %s\n", r.system.c_str());
     if (!out->empty()) {
       ensure_parent_folder(*out);
       write_radiosity_csv(*out, problem->mesh, r.B);

@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <exception>
+#include <filesystem>
 
 #include "core/error.h"
 #include "core/limits.h"
@@ -47,6 +48,10 @@ int main(int argc, char** argv) {
   } catch (const radlab::Error& e) {
     std::fprintf(stderr, "radlab: error: %s\n", e.what());
     return int(e.code());
+  } catch (const std::filesystem::filesystem_error& e) {
+    // A file or folder that cannot be created, read or renamed: the input (a path) is at fault.
+    std::fprintf(stderr, "radlab: error: %s\n", e.what());
+    return int(radlab::ExitCode::kInvalidInput);
   } catch (const std::bad_alloc&) {
     // radlab estimates the large allocations (mesh, dense matrix, runs, images) and refuses
     // them above --limits first, so this is an allocation it did not foresee: no advice that
