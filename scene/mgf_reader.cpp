@@ -423,8 +423,8 @@ class Reader {
 
   // The work bound: statements executed (arrays and includes repeat them).
   void count_statement() {
-    ++statements_;
-    check_work(0.0, "the scene (arrays and includes repeat statements)");
+    if (++statements_ > max_statements_)
+      check_work(0.0, "the scene (arrays and includes repeat statements)");
   }
   void check_work(double statements, const std::string& what) {
     if (statements + statements_ <= max_statements_) return;
