@@ -1,5 +1,6 @@
 // The radlab command line. Exit codes (DESIGN §7): 0 ok, 2 usage, 3 invalid input,
-// 4 numerical failure; errors are printed to stderr and name what is at fault.
+// 4 numerical failure, 5 tolerance not reached (`radlab solve --tol`, outputs written); errors are
+// printed to stderr and name what is at fault.
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <exception>
@@ -35,11 +36,16 @@ int main(int argc, char** argv) {
   radlab::cli::add_solve_command(app, argc, argv);
   radlab::cli::add_run_command(app, argc, argv);
   radlab::cli::add_merge_command(app);
+<<<<<<< HEAD
   app.parse_complete_callback([&]() {
     radlab::log::set_quiet(quiet);
     if (!limits.empty()) radlab::set_limits(limits);
     radlab::set_mgf_include_root(include_root);
   });
+=======
+  radlab::cli::add_prepare_command(app);
+  app.parse_complete_callback([&]() { radlab::log::set_quiet(quiet); });
+>>>>>>> main
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -76,6 +76,7 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
     // The cache holds the method's matrix in double; float storage is its rounding, made below.
     key = matrix_cache_key(problem->mesh, problem->method->name(), problem->method->parameters(),
                            Precision::kDouble);
+    problem->matrix_cache_file = cache->path(key).string();
   }
   if (spec.row_mode == RowMode::kCached || spec.need_reference) {
     std::optional<FormFactorMatrix> cached =
@@ -115,8 +116,10 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
     // Float storage: the solvers read the rounding of the double matrix, and the reference and
     // bounds stay on the double one (the system the method computed; docs/reference.md).
     if (precision == Precision::kFloat && spec.row_mode == RowMode::kCached) {
-      problem->computed = std::move(problem->matrix);
-      problem->matrix = round_to_float(problem->computed);
+      FormFactorMatrix rounded = round_to_float(problem->matrix);
+      // Without a reference nothing is certified: the double matrix is not kept.
+      if (spec.need_reference) problem->computed = std::move(problem->matrix);
+      problem->matrix = std::move(rounded);
     }
     if (symmetrise_ff || precision == Precision::kFloat) {
       problem->diagnostics = diagnose(problem->matrix, problem->mesh.area);
@@ -144,6 +147,7 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
     if (cache) {
       references.emplace(cache_dir);
       reference_key = reference_cache_key(key, symmetrise_ff, cached, {});
+      problem->reference_cache_file = references->path(reference_key).string();
       problem->reference = references->load(reference_key, cached, certified, {});
     }
     std::unique_ptr<FileLock> computing;  // as for the matrix: computed once, others wait
