@@ -36,16 +36,12 @@ int main(int argc, char** argv) {
   radlab::cli::add_solve_command(app, argc, argv);
   radlab::cli::add_run_command(app, argc, argv);
   radlab::cli::add_merge_command(app);
-<<<<<<< HEAD
+  radlab::cli::add_prepare_command(app);
   app.parse_complete_callback([&]() {
     radlab::log::set_quiet(quiet);
     if (!limits.empty()) radlab::set_limits(limits);
     radlab::set_mgf_include_root(include_root);
   });
-=======
-  radlab::cli::add_prepare_command(app);
-  app.parse_complete_callback([&]() { radlab::log::set_quiet(quiet); });
->>>>>>> main
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
