@@ -55,6 +55,15 @@ long long ParamBag::get_int(const std::string& key, long long fallback) {
   return *parsed;
 }
 
+long long ParamBag::get_int(const std::string& key, long long fallback, long long min,
+                            long long max) {
+  const long long value = get_int(key, fallback);
+  if (value < min || value > max)
+    throw UsageError(context_ + ": key '" + key + "' must lie in [" + std::to_string(min) + ", " +
+                     std::to_string(max) + "], got " + std::to_string(value));
+  return value;
+}
+
 bool ParamBag::get_bool(const std::string& key, bool fallback) {
   const std::string* v = lookup(key);
   if (!v) return fallback;

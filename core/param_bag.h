@@ -12,6 +12,11 @@
 
 namespace radlab {
 
+// Bounds for ParamBag::get_int(key, fallback, min, max) of values that become int or uint64.
+inline constexpr long long kIntMin = -2147483648LL;
+inline constexpr long long kIntMax = 2147483647;
+inline constexpr long long kInt64Max = 9223372036854775807;
+
 class ParamBag {
  public:
   // `context` names the owner in error messages, e.g. "solver 'gauss-seidel'".
@@ -30,6 +35,9 @@ class ParamBag {
 
   double get_double(const std::string& key, double fallback);
   long long get_int(const std::string& key, long long fallback);
+  // An integer that must lie in [min, max], checked in 64 bits before the caller narrows it
+  // (rays=4294967297 is refused, not taken as 1 ray).
+  long long get_int(const std::string& key, long long fallback, long long min, long long max);
   bool get_bool(const std::string& key, bool fallback);
   std::string get_string(const std::string& key, const std::string& fallback);
   // A string that must be one of `choices`.

@@ -1,8 +1,11 @@
 #include "experiments/cli_common.h"
 
+#include <cmath>
 #include <filesystem>
+#include <limits>
 
 #include "core/error.h"
+#include "core/text.h"
 
 namespace radlab::cli {
 
@@ -11,11 +14,36 @@ void add_scene_options(CLI::App& command, SceneOptions& o) {
       .add_option("scene", o.scene,
                   "builtin:NAME[:key=value,...] (see `radlab scenes`), or an .obj file")
       ->required();
-  auto* subdiv = command.add_option("--subdiv", o.subdiv,
-                                    "split each quad K x K, each triangle into K^2 (default 1)");
+  add_mesh_options(command, o);
+}
+
+void add_mesh_options(CLI::App& command, SceneOptions& o) {
+  // Checked on the text, in 64 bits / double, before CLI11 narrows it: 0, NaN, infinities and
+  // values that do not fit an int are refused, not turned into a default or wrapped.
+  auto* subdiv =
+      command
+          .add_option("--subdiv", o.subdiv,
+                      "split each quad K x K, each triangle into K^2 (default 1; the "
+                      "element count is estimated first, see --limits)")
+          ->check(CLI::Validator(
+              [](std::string& value) -> std::string {
+                auto k = text::parse_int(value);
+                if (!k || *k < 1 || *k > std::numeric_limits<int>::max())
+                  return "--subdiv must be a whole number in [1, 2147483647], got '" + value + "'";
+                return {};
+              },
+              "K >= 1", "subdivision"));
   command
       .add_option("--element-size", o.element_size,
-                  "split polygons so element edges are at most H metres")
+                  "split polygons so element edges are at most H metres (H > 0)")
+      ->check(CLI::Validator(
+          [](std::string& value) -> std::string {
+            auto h = text::parse_double(value);
+            if (!h || !std::isfinite(*h) || !(*h > 0))
+              return "--element-size must be a finite number > 0, got '" + value + "'";
+            return {};
+          },
+          "H > 0", "element size"))
       ->excludes(subdiv);
   command.add_option("--patches", o.patches,
                      "two levels (Cohen 1988 §3.4): elements (default, one level), polygons (a "
@@ -49,8 +77,9 @@ ProblemSpec make_spec(const SceneOptions& scene, const FormFactorOptions& ff) {
   spec.keep_overlaps = scene.keep_overlaps;
   if (scene.subdiv < 1)
     throw UsageError("--subdiv must be >= 1, got " + std::to_string(scene.subdiv));
-  if (scene.element_size < 0)
-    throw UsageError("--element-size must be > 0, got " + std::to_string(scene.element_size));
+  if (!(scene.element_size >= 0) || !std::isfinite(scene.element_size))
+    throw UsageError("--element-size must be a finite number > 0, got " +
+                     text::format_double(scene.element_size));
   spec.patches.from = scene.patches;
   spec.patches.size = scene.patch_size;
   spec.patches.validate();

@@ -27,6 +27,9 @@ struct FormFactorOptions {
 };
 
 void add_scene_options(CLI::App& command, SceneOptions& options);
+// --subdiv and --element-size alone (add_scene_options adds them too), range-checked on the
+// text before narrowing.
+void add_mesh_options(CLI::App& command, SceneOptions& options);
 void add_form_factor_options(CLI::App& command, FormFactorOptions& options, bool with_mode);
 
 ProblemSpec make_spec(const SceneOptions& scene, const FormFactorOptions& ff);

@@ -13,9 +13,7 @@ void add_scenes_command(CLI::App& app) {
   auto* command = app.add_subcommand("scenes", "list the built-in scenes, or describe one scene");
   auto options = std::make_shared<SceneOptions>();
   command->add_option("scene", options->scene, "a scene to describe (builtin:NAME or a file)");
-  auto* subdiv = command->add_option("--subdiv", options->subdiv, "mesh subdivision K");
-  command->add_option("--element-size", options->element_size, "largest element edge (m)")
-      ->excludes(subdiv);
+  add_mesh_options(*command, *options);
   command->callback([options]() {
     if (options->scene.empty()) {
       std::printf("Built-in scenes (use as builtin:NAME or builtin:NAME:key=value,...):\n\n");

@@ -2,16 +2,27 @@
 
 #include <toml++/toml.h>
 
+#include <cctype>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <set>
 
 #include "core/error.h"
+#include "core/limits.h"
 #include "core/text.h"
 #include "solvers/registry.h"
 
 namespace radlab {
 namespace {
+
+bool valid_name(const std::string& name) {
+  if (name.empty() || name == "." || name == ".." || name.size() > 200) return false;
+  for (char c : name)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == '_'))
+      return false;
+  return true;
+}
 
 class Reader {
  public:
@@ -70,6 +81,27 @@ class Reader {
     }
     return out;
   }
+  // A list whose entries must differ (equal entries would plan runs with the same run id, which
+  // overwrite each other): the second of two equal entries is refused, naming its line.
+  template <class Fn>
+  auto distinct_list(const toml::node& node, const std::string& what, Fn&& item) const {
+    using T = decltype(item(node));
+    std::vector<T> out;
+    std::set<T> seen;
+    auto add = [&](const toml::node& element) {
+      T value = item(element);
+      if (!seen.insert(value).second)
+        fail(element, what + " lists the same entry twice (runs would share a run id)");
+      out.push_back(std::move(value));
+    };
+    if (const toml::array* array = node.as_array()) {
+      for (const toml::node& element : *array) add(element);
+      if (out.empty()) fail(node, "an empty list is not allowed here");
+    } else {
+      add(node);
+    }
+    return out;
+  }
 
  private:
   std::string path_;
@@ -94,26 +126,36 @@ ExperimentSpec read_experiment(const std::string& path) {
   ExperimentSpec spec;
   spec.path = path;
   spec.name = std::filesystem::path(path).stem().string();
-  if (auto n = root["name"]) spec.name = r.string(*n.node(), "name");
+  if (auto n = root["name"]) {
+    spec.name = r.string(*n.node(), "name");
+    // The name becomes the default output folder out/NAME: no way out of out/.
+    if (!valid_name(spec.name))
+      r.fail(*n.node(), "name '" + spec.name +
+                            "' must be a plain file name: letters, digits, "
+                            "'.', '-', '_', not '.' or '..', no path separators");
+  }
   if (auto n = root["description"]) spec.description = r.string(*n.node(), "description");
 
   auto scenes = root["scenes"];
   if (!scenes) throw InputError(path + ": 'scenes' is required (a list of scene specs)");
-  spec.scenes = r.list(*scenes.node(), [&](const toml::node& n) { return r.string(n, "scene"); });
+  spec.scenes = r.distinct_list(*scenes.node(), "scenes",
+                                [&](const toml::node& n) { return r.string(n, "scene"); });
 
   if (root["subdiv"] && root["element_size"])
     r.fail(*root["element_size"].node(), "give 'subdiv' or 'element_size', not both");
   if (auto n = root["element_size"]) {
-    for (double h : r.list(*n.node(), [&](const toml::node& v) {
+    for (double h : r.distinct_list(*n.node(), "element_size", [&](const toml::node& v) {
            double h = r.number(v, "element_size");
-           if (!(h > 0)) r.fail(v, "element_size must be > 0");
+           if (!(h > 0) || !std::isfinite(h)) r.fail(v, "element_size must be a finite number > 0");
            return h;
          }))
       spec.meshes.push_back(MeshOptions{1, h});
   } else if (auto s = root["subdiv"]) {
-    for (long long k : r.list(*s.node(), [&](const toml::node& v) {
+    for (long long k : r.distinct_list(*s.node(), "subdiv", [&](const toml::node& v) {
            long long k = r.integer(v, "subdiv");
-           if (k < 1) r.fail(v, "subdiv must be >= 1");
+           // Checked in 64 bits before it becomes an int (4294967298 is not 2).
+           if (k < 1 || k > std::numeric_limits<int>::max())
+             r.fail(v, "subdiv must lie in [1, 2147483647], got " + std::to_string(k));
            return k;
          }))
       spec.meshes.push_back(MeshOptions{int(k), 0.0});
@@ -136,9 +178,18 @@ ExperimentSpec read_experiment(const std::string& path) {
     }
     spec.solvers.push_back({name, {}});
   }
+  for (size_t i = 0; i < spec.solvers.size(); ++i)
+    for (size_t j = 0; j < i; ++j)
+      if (spec.solvers[i].name == spec.solvers[j].name)
+        r.fail(*solvers.node(), "solvers lists '" + spec.solvers[i].name +
+                                    "' twice (runs would share a run id; 'all' includes it)");
 
   if (auto n = root["seeds"])
-    spec.seeds = r.list(*n.node(), [&](const toml::node& v) { return r.integer(v, "seed"); });
+    spec.seeds = r.distinct_list(*n.node(), "seeds", [&](const toml::node& v) {
+      const long long seed = r.integer(v, "seed");
+      if (seed < 0) r.fail(v, "seeds must be >= 0, got " + std::to_string(seed));
+      return seed;
+    });
 
   if (const toml::table* ff = root["form_factors"].as_table()) {
     for (auto&& [key, node] : *ff) {
@@ -229,10 +280,11 @@ ExperimentSpec read_experiment(const std::string& path) {
       std::set<std::string> valid;
       for (const ParameterInfo& pi : info.parameters) valid.insert(pi.name);
       r.only(*table, valid, "[parameters." + solver + "]");
-      for (auto&& [pkey, pnode] : *table)
-        it->parameters[std::string(pkey.str())] = r.list(pnode, [&](const toml::node& v) {
-          return r.scalar(v, "parameters." + solver + "." + std::string(pkey.str()));
-        });
+      for (auto&& [pkey, pnode] : *table) {
+        const std::string what = "parameters." + solver + "." + std::string(pkey.str());
+        it->parameters[std::string(pkey.str())] =
+            r.distinct_list(pnode, what, [&](const toml::node& v) { return r.scalar(v, what); });
+      }
     }
   }
 
@@ -247,8 +299,15 @@ ExperimentSpec read_experiment(const std::string& path) {
     if (auto n = (*im)["steps"])
       spec.images.steps =
           r.list(*n.node(), [&](const toml::node& v) { return r.integer(v, "images.steps"); });
-    if (auto n = (*im)["width"]) spec.images.width = int(r.integer(*n.node(), "images.width"));
-    if (auto n = (*im)["height"]) spec.images.height = int(r.integer(*n.node(), "images.height"));
+    // Range-checked in 64 bits before narrowing (4294967304 is not 8).
+    for (const char* key : {"width", "height"})
+      if (auto n = (*im)[key]) {
+        const long long v = r.integer(*n.node(), std::string("images.") + key);
+        if (v < 8 || v > 8192)
+          r.fail(*n.node(),
+                 std::string("images.") + key + " must lie in [8, 8192], got " + std::to_string(v));
+        (std::string(key) == "width" ? spec.images.width : spec.images.height) = int(v);
+      }
     if (auto n = (*im)["error_maps"]) {
       if (!n.is_boolean()) r.fail(*n.node(), "images.error_maps must be true or false");
       spec.images.error_maps = *n.value<bool>();
@@ -301,6 +360,22 @@ SweepPlan plan_sweep(const ExperimentSpec& spec) {
   SweepPlan plan;
   const std::vector<long long> seeds =
       spec.seeds.empty() ? std::vector<long long>{-1} : spec.seeds;  // -1: method default
+  // Counted in double before anything is built: three 1,000-value axes are 10^9 runs.
+  double per_problem = 0.0;
+  for (const SolverSweep& solver : spec.solvers) {
+    double product = 1.0;
+    for (const auto& [key, values] : solver.parameters) product *= double(values.size());
+    per_problem += product;
+  }
+  const double runs =
+      double(spec.scenes.size()) * double(spec.meshes.size()) * double(seeds.size()) * per_problem;
+  check_limit("runs", runs, spec.path + ": the experiment plans");
+  // Images: every run writes, at every image step, the display image and (with error_maps) two
+  // error maps, each as float RGB EXR (12 bytes a pixel) and PNG (at most ~3 bytes a pixel).
+  const double image_bytes = runs * double(spec.images.steps.size()) *
+                             (spec.images.error_maps ? 3.0 : 1.0) * double(spec.images.width) *
+                             double(spec.images.height) * 15.0;
+  check_limit("images_gb", image_bytes, spec.path + ": the images of the sweep");
   for (const std::string& scene : spec.scenes)
     for (const MeshOptions& mesh : spec.meshes)
       for (long long seed : seeds) {
@@ -333,6 +408,13 @@ SweepPlan plan_sweep(const ExperimentSpec& spec) {
             plan.runs.push_back(std::move(run));
           }
       }
+  // Different entries can still spell the same run id (two scene files with the same name in
+  // different folders): such runs would overwrite each other's outputs.
+  std::set<std::string> ids;
+  for (const PlannedRun& run : plan.runs)
+    if (!ids.insert(run.run_id).second)
+      throw InputError(spec.path + ": two runs would have the run id '" + run.run_id +
+                       "' and overwrite each other (scene files with the same name?)");
   return plan;
 }
 

@@ -7,8 +7,10 @@
 #include <filesystem>
 
 #include "core/error.h"
+#include "core/limits.h"
 #include "core/log.h"
 #include "experiments/cli_common.h"
+#include "scene/scene_loader.h"
 
 int main(int argc, char** argv) {
   CLI::App app{
@@ -16,6 +18,17 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   bool quiet = false;
   app.add_flag("-q,--quiet", quiet, "no progress or information on stderr (errors still print)");
+  std::string limits;
+  app.add_option("--limits", limits,
+                 "raise or lower the work radlab accepts before refusing it (estimated before "
+                 "allocating), key=value,...: " +
+                     radlab::limits_help());
+  std::string include_root;
+  app.add_option("--mgf-include-root", include_root,
+                 "let MGF scenes include files anywhere inside this folder (default: only inside "
+                 "the scene file's own folder)");
+  // These options may also follow the subcommand.
+  app.fallthrough();
   radlab::cli::add_scenes_command(app);
   radlab::cli::add_solvers_command(app);
   radlab::cli::add_formfactors_command(app);
@@ -24,7 +37,11 @@ int main(int argc, char** argv) {
   radlab::cli::add_run_command(app, argc, argv);
   radlab::cli::add_merge_command(app);
   radlab::cli::add_prepare_command(app);
-  app.parse_complete_callback([&]() { radlab::log::set_quiet(quiet); });
+  app.parse_complete_callback([&]() {
+    radlab::log::set_quiet(quiet);
+    if (!limits.empty()) radlab::set_limits(limits);
+    radlab::set_mgf_include_root(include_root);
+  });
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -38,8 +55,12 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "radlab: error: %s\n", e.what());
     return int(radlab::ExitCode::kInvalidInput);
   } catch (const std::bad_alloc&) {
+    // radlab estimates the large allocations (mesh, dense matrix, runs, images) and refuses
+    // them above --limits first, so this is an allocation it did not foresee: no advice that
+    // could be wrong for the cause.
     std::fprintf(stderr,
-                 "radlab: error: out of memory (try a coarser mesh or --ff-mode on-the-fly)\n");
+                 "radlab: error: out of memory: an allocation failed that the limits "
+                 "(--limits, see --help) did not foresee; lower the limits or the input's size\n");
     return int(radlab::ExitCode::kNumerical);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "radlab: internal error: %s\n", e.what());

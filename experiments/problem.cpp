@@ -1,6 +1,7 @@
 #include "experiments/problem.h"
 
 #include "core/error.h"
+#include "core/limits.h"
 #include "core/log.h"
 #include "core/progress.h"
 #include "experiments/reference_cache.h"
@@ -104,6 +105,14 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
     throw UsageError("form factors: symmetrise=true needs the dense matrix (--ff-mode cached)");
 
   const size_t n = problem->mesh.size();
+  if (spec.row_mode == RowMode::kCached || spec.need_reference) {
+    // Estimated before the n^2 allocation and the n^2 pair evaluations.
+    const double pairs = double(n) * double(n);
+    const std::string what = problem->scene().name + ": the dense form-factor matrix of " +
+                             std::to_string(n) + " elements";
+    check_limit("memory_gb", pairs * (precision == Precision::kDouble ? 8.0 : 4.0), what);
+    check_limit("pairs", pairs, what + " (" + spec.ff_method + ")");
+  }
   // The dense matrix is built when rows are cached or the reference needs it; a streaming run
   // without a reference never holds n^2 numbers.
   std::filesystem::path cache_dir;

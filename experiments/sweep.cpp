@@ -30,9 +30,10 @@ std::pair<int, int> parse_shard(const std::string& text) {
   if (parts.size() == 2) {
     auto i = text::parse_int(parts[0]);
     auto n = text::parse_int(parts[1]);
-    if (i && n && *n >= 1 && *i >= 0 && *i < *n) return {int(*i), int(*n)};
+    // N is checked in 64 bits before it becomes an int (1/4294967298 is not 1/2).
+    if (i && n && *n >= 1 && *n <= 2147483647 && *i >= 0 && *i < *n) return {int(*i), int(*n)};
   }
-  throw UsageError("--shard must be i/N with 0 <= i < N, got '" + text + "'");
+  throw UsageError("--shard must be i/N with 0 <= i < N <= 2147483647, got '" + text + "'");
 }
 
 std::string file_stem(const std::string& run_id) {

@@ -13,11 +13,11 @@ namespace radlab {
 ExactOptions ExactOptions::from(ParamBag& bag) {
   ExactOptions o;
   o.tolerance = bag.get_double("tolerance", o.tolerance);
-  o.max_depth = int(bag.get_int("max_depth", o.max_depth));
+  o.max_depth = int(bag.get_int("max_depth", o.max_depth, kIntMin, kIntMax));
   o.visibility_rays = bag.get_choice("visibility", "refuse", {"refuse", "rays"}) == "rays";
   if (o.visibility_rays) {
-    o.rays = int(bag.get_int("rays", o.rays));
-    o.seed = uint64_t(bag.get_int("seed", 0));
+    o.rays = int(bag.get_int("rays", o.rays, kIntMin, kIntMax));
+    o.seed = uint64_t(bag.get_int("seed", 0, 0, kInt64Max));
   } else if (bag.has("rays") || bag.has("seed")) {
     throw UsageError("exact: 'rays' and 'seed' apply only with visibility=rays");
   }

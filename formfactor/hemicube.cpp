@@ -18,7 +18,7 @@ namespace radlab {
 
 HemicubeOptions HemicubeOptions::from(ParamBag& bag) {
   HemicubeOptions o;
-  o.resolution = int(bag.get_int("resolution", o.resolution));
+  o.resolution = int(bag.get_int("resolution", o.resolution, kIntMin, kIntMax));
   const std::string w = bag.get_choice("weights", "midpoint", {"midpoint", "exact"});
   o.weights = w == "exact" ? HemicubeWeighting::kExact : HemicubeWeighting::kMidpoint;
   o.validate();
@@ -248,9 +248,18 @@ struct HemicubeFormFactors::Buffers {
   }
 };
 
-HemicubeFormFactors::HemicubeFormFactors(const Scene& /*scene*/, const Mesh& mesh,
+HemicubeFormFactors::HemicubeFormFactors(const Scene& scene, const Mesh& mesh,
                                          HemicubeOptions options)
     : mesh_(mesh), options_((options.validate(), options)) {
+  // The clipper holds kMaxClip - 6 corners (each near-plane and face cut adds some): an element
+  // with more would be skipped, i.e. invisible to every hemicube. Refused, not dropped.
+  for (size_t e = 0; e < mesh.size(); ++e)
+    if (const size_t m = mesh.element_vertices(e).size(); m > size_t(kMaxClip - 6))
+      throw InputError(scene.polygons[mesh.polygon[e]].origin + ": element " + std::to_string(e) +
+                       " has " + std::to_string(m) + " corners; the hemicube rasterises at most " +
+                       std::to_string(kMaxClip - 6) +
+                       " (use --subdiv 2 or more, which splits n-gons into triangles, or another "
+                       "form-factor method)");
   weights_ = hemicube_weights(options_.resolution, options_.weights);
   epsilon_ = plane_epsilon(mesh);
   near_ = 100.0 * epsilon_;

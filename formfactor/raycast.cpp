@@ -13,10 +13,10 @@ namespace radlab {
 RaycastOptions RaycastOptions::from(ParamBag& bag) {
   RaycastOptions o;
   o.tolerance = bag.get_double("tolerance", o.tolerance);
-  o.rays = int(bag.get_int("rays", o.rays));
-  o.max_rays = int(bag.get_int("max_rays", std::max(o.max_rays, o.rays)));
-  o.seed = uint64_t(bag.get_int("seed", 0));
-  o.max_order = int(bag.get_int("max_order", o.max_order));
+  o.rays = int(bag.get_int("rays", o.rays, kIntMin, kIntMax));
+  o.max_rays = int(bag.get_int("max_rays", std::max(o.max_rays, o.rays), kIntMin, kIntMax));
+  o.seed = uint64_t(bag.get_int("seed", 0, 0, kInt64Max));
+  o.max_order = int(bag.get_int("max_order", o.max_order, kIntMin, kIntMax));
   o.shafts = bag.get_bool("shafts", o.shafts);
   o.validate();
   return o;

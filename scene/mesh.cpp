@@ -4,6 +4,9 @@
 #include <cmath>
 #include <glm/geometric.hpp>
 
+#include "core/error.h"
+#include "core/limits.h"
+#include "core/text.h"
 #include "scene/geometry.h"
 
 namespace radlab {
@@ -86,15 +89,43 @@ class MeshBuilder {
 
 }  // namespace
 
+double polygon_subdivisions(const std::vector<Vec3>& v, const MeshOptions& options) {
+  if (options.element_size > 0)
+    return std::max(1.0, std::ceil(longest_edge(v) / options.element_size - 1e-9));
+  return std::max(1.0, double(options.subdivisions));
+}
+
+double estimate_elements(const Scene& scene, const MeshOptions& options) {
+  double total = 0.0;
+  for (const Polygon& polygon : scene.polygons) {
+    const double k = polygon_subdivisions(polygon.vertices, options);
+    const size_t n = polygon.vertices.size();
+    // As build_mesh: a quad or triangle makes K^2, an unsplit n-gon 1, a fanned n-gon (n-2) K^2.
+    total += n <= 4 ? k * k : k == 1 ? 1.0 : double(n - 2) * k * k;
+  }
+  return total;
+}
+
 Mesh build_mesh(const Scene& scene, const MeshOptions& options) {
+  if (!(options.element_size >= 0) || !std::isfinite(options.element_size))
+    throw UsageError("the element size must be a finite number > 0, got " +
+                     text::format_double(options.element_size));
+  const double estimate = estimate_elements(scene, options);
+  const std::string mesh_name = options.element_size > 0
+                                    ? "element size " + text::format_double(options.element_size)
+                                    : "subdivision " + std::to_string(options.subdivisions);
+  check_limit("elements", estimate, scene.name + ": mesh at " + mesh_name);
+  // Vertex and element indices are 32-bit: beyond ~1e9 elements no limit may be raised.
+  if (estimate > 1e9)
+    throw InputError(scene.name + ": the mesh at " + mesh_name + " has " + format_count(estimate) +
+                     " elements, beyond radlab's 32-bit indices");
   Mesh mesh;
   MeshBuilder builder(mesh);
   mesh.first_element_of_polygon.push_back(0);
   for (size_t p = 0; p < scene.polygons.size(); ++p) {
     const std::vector<Vec3>& v = scene.polygons[p].vertices;
-    int k = std::max(1, options.subdivisions);
-    if (options.element_size > 0)
-      k = std::max(1, int(std::ceil(longest_edge(v) / options.element_size - 1e-9)));
+    // At most sqrt(1e9) after the estimate above, so it fits an int.
+    const int k = int(polygon_subdivisions(v, options));
     const auto polygon = uint32_t(p);
     if (v.size() == 4) {
       builder.quad_grid(v, k, polygon);

@@ -40,7 +40,16 @@ class Mesh {
   double total_area = 0.0;
 };
 
-// Subdivides every polygon of a (validated) scene.
+// The subdivision K of one polygon, in double (`--element-size 1e-12` asks for 10^12 per edge,
+// which must be seen before it becomes an int).
+double polygon_subdivisions(const std::vector<Vec3>& vertices, const MeshOptions& options);
+
+// The number of elements build_mesh makes, computed in double before anything is allocated.
+double estimate_elements(const Scene& scene, const MeshOptions& options);
+
+// Subdivides every polygon of a (validated) scene (subdivisions below 1 count as 1). Throws
+// UsageError for an element size that is negative or not finite, and InputError when the element
+// estimate exceeds limits().elements (core/limits.h), before allocating.
 Mesh build_mesh(const Scene& scene, const MeshOptions& options);
 
 }  // namespace radlab

@@ -19,6 +19,7 @@
 #include <unordered_map>
 
 #include "core/error.h"
+#include "core/limits.h"
 #include "core/log.h"
 #include "core/text.h"
 #include "scene/cie_colour.h"
@@ -31,6 +32,36 @@ namespace fs = std::filesystem;
 
 // Includes nested deeper than this are taken for a cycle.
 constexpr int kMaxIncludeDepth = 32;
+// File inclusions in all (each execution of an `i`, arrays and repeats included). Nesting
+// multiplies them: 32 files each including the next twice are 2^31 inclusions. The RenderPark
+// hospital, the largest real scene here, makes 71.
+constexpr long kMaxIncludes = 10000;
+// Statements executed per polygon allowed (arrays and includes repeat statements; a body that
+// makes no polygon still costs time): the work bound is this times limits().polygons.
+constexpr double kStatementsPerPolygon = 4.0;
+
+// A word from the file as quoted in a message: at most 24 characters, control and non-ASCII
+// bytes replaced, so an error never echoes a file's contents (an included /etc/passwd's first
+// line, a binary file).
+std::string quoted(const std::string& word) {
+  std::string out;
+  for (char c : word.substr(0, 24)) {
+    const auto u = static_cast<unsigned char>(c);
+    out += (u >= 0x20 && u < 0x7f) ? c : '?';
+  }
+  if (word.size() > 24) out += "...";
+  return out;
+}
+
+// True when `path` (canonical) lies inside `root` (canonical).
+bool inside(const fs::path& path, const fs::path& root) {
+  auto p = path.begin();
+  for (auto r = root.begin(); r != root.end(); ++r, ++p) {
+    if (r->empty()) continue;  // a trailing separator
+    if (p == path.end() || *p != *r) return false;
+  }
+  return true;
+}
 // Chromaticities this close to (1/3, 1/3) are MGF's neutral: the files write 0.333 or 0.3330 for
 // it, and the difference (below the precision they carry) would otherwise make every grey
 // material very slightly coloured and the whole scene need three channels instead of one.
@@ -92,9 +123,13 @@ struct XfGroup {
   bool array = false;
 };
 
-glm::dmat4 power(const glm::dmat4& m, int k) {
+// m^k by repeated squaring (k <= 1e6: at most 40 products).
+glm::dmat4 power(glm::dmat4 m, int k) {
   glm::dmat4 out(1.0);
-  for (int i = 0; i < k; ++i) out = m * out;
+  for (; k > 0; k >>= 1) {
+    if (k & 1) out = m * out;
+    m = m * m;
+  }
   return out;
 }
 
@@ -123,6 +158,12 @@ class Reader {
     if (options_.quarter_circle_divisions < 1 || options_.quarter_circle_divisions > 64)
       throw InputError(path + ": MGF quarter_circle_divisions must lie in [1, 64], got " +
                        std::to_string(options_.quarter_circle_divisions));
+    std::error_code ec;
+    const fs::path root = options_.include_root.empty() ? fs::path(path).parent_path()
+                                                        : fs::path(options_.include_root);
+    root_ = fs::weakly_canonical(root.empty() ? fs::path(".") : root, ec);
+    if (ec) throw InputError(root.string() + ": cannot resolve the MGF include folder");
+    max_statements_ = kStatementsPerPolygon * limits().polygons;
     const ParsedFile& file = load(fs::path(path), path);
     run_file(file);
     if (scene_.polygons.empty())
@@ -140,11 +181,17 @@ class Reader {
     if (ec) key = path;
     auto it = files_.find(key.string());
     if (it != files_.end()) return *it->second;
+    // Regular files only: /dev/zero or a FIFO would be read until memory runs out.
+    if (fs::exists(path, ec) && !fs::is_regular_file(path, ec))
+      throw InputError(shown + ": not a regular file (MGF reads and includes only regular files)" +
+                       include_chain());
     std::ifstream in(path, std::ios::binary);
     if (!in) throw InputError(shown + ": cannot open file" + include_chain());
-    std::stringstream buffer;
-    buffer << in.rdbuf();
-    const std::string text = buffer.str();
+    std::string text;
+    char chunk[1 << 16];
+    while (in.read(chunk, sizeof chunk) || in.gcount() > 0) text.append(chunk, size_t(in.gcount()));
+    // A failed read is not the end of the file.
+    if (in.bad()) throw InputError(shown + ": read error" + include_chain());
     auto file = std::make_unique<ParsedFile>();
     file->path = shown;
     file->folder = path.parent_path();
@@ -207,20 +254,23 @@ class Reader {
       where_ = &s;
       file_ = &file;
       const std::string& key = s.words[0];
+      count_statement();
       if (key == "xf" && s.words.size() > 1) {
         std::vector<XfGroup> groups = parse_transform(s, 1);
         if (has_array(groups)) {
           const size_t close = matching_xf(file, i, end);
-          for (const glm::dmat4& m : instances(groups)) {
+          // Every instance runs the body at least once: bounded before the first one runs.
+          check_work(instance_count(groups) * double(close - i), "the 'xf -a' array");
+          for_each_instance(groups, [&](const glm::dmat4& m) {
             push_transform(m, s.line);
             run(file, i + 1, close);
             pop_transform();
             where_ = &s;
             file_ = &file;
-          }
+          });
           i = close;
         } else {
-          push_transform(instances(groups).front(), s.line);
+          for_each_instance(groups, [&](const glm::dmat4& m) { push_transform(m, s.line); });
         }
       } else if (key == "i") {
         include(file, s);
@@ -258,17 +308,27 @@ class Reader {
     } else {
       path = file.folder / name;
     }
-    std::vector<glm::dmat4> transforms = {glm::dmat4(1.0)};
+    std::vector<XfGroup> groups(1);
     const bool transformed = s.words.size() > 2;
-    if (transformed) transforms = instances(parse_transform(s, 2));
+    if (transformed) groups = parse_transform(s, 2);
     if (!fs::exists(path)) fail("'i': included file '" + path.string() + "' not found");
+    std::error_code ec;
+    if (!inside(fs::weakly_canonical(path, ec), root_))
+      fail("'i': '" + path.lexically_normal().string() + "' lies outside the scene's folder " +
+           root_.string() + " (to read it, name a folder that holds both with " +
+           "--mgf-include-root DIR)");
+    check_work(instance_count(groups), "the included file's instances");
     includes_.push_back(file.path + ":" + std::to_string(s.line));
     const ParsedFile& included = load(path, path.lexically_normal().string());
-    for (const glm::dmat4& m : transforms) {
+    for_each_instance(groups, [&](const glm::dmat4& m) {
+      if (++include_count_ > kMaxIncludes)
+        fail("more than " + std::to_string(kMaxIncludes) +
+             " file inclusions (nested includes multiply: does a file include another twice at "
+             "every level?)");
       if (transformed) push_transform(m, s.line);
       run_file(included);
       if (transformed) pop_transform();
-    }
+    });
     includes_.pop_back();
     where_ = &s;
     file_ = &file;
@@ -312,7 +372,7 @@ class Reader {
         groups.push_back(XfGroup{glm::dmat4(1.0), static_cast<int>(n), flag == "-a"});
         k += 1;
       } else {
-        fail("unknown transform argument '" + flag +
+        fail("unknown transform argument '" + quoted(flag) +
              "' (MGF has -t, -rx, -ry, -rz, -s, -mx, -my, -mz, -i, -a)");
       }
     }
@@ -323,31 +383,55 @@ class Reader {
     return std::any_of(groups.begin(), groups.end(), [](const XfGroup& g) { return g.array; });
   }
 
-  // The local transform of every instance; the first array's index varies fastest.
-  static std::vector<glm::dmat4> instances(const std::vector<XfGroup>& groups) {
-    std::vector<size_t> arrays;
-    size_t total = 1;
-    for (size_t g = 0; g < groups.size(); ++g)
-      if (groups[g].array) {
-        arrays.push_back(g);
-        total *= size_t(groups[g].count);
-      }
+  // Instances of a transform: the product of its array counts (1 without arrays), in double.
+  static double instance_count(const std::vector<XfGroup>& groups) {
+    double total = 1.0;
+    for (const XfGroup& g : groups)
+      if (g.array) total *= double(g.count);
+    return total;
+  }
+
+  // Calls fn(local transform) for every instance, the first array's index varying fastest.
+  // Incremental: instance k + 1 of an array group is its matrix times instance k (one product),
+  // never a list of instances or a power per instance.
+  template <class Fn>
+  void for_each_instance(const std::vector<XfGroup>& groups, Fn&& fn) {
+    std::vector<glm::dmat4> current(groups.size());
     std::vector<int> index(groups.size(), 0);
-    std::vector<glm::dmat4> out;
-    out.reserve(total);
-    for (size_t n = 0; n < total; ++n) {
-      glm::dmat4 m(1.0);
-      for (size_t g = 0; g < groups.size(); ++g) {
-        const int times = groups[g].array ? index[g] : groups[g].count;
-        m = power(groups[g].m, times) * m;
-      }
-      out.push_back(m);
-      for (size_t a : arrays) {
-        if (++index[a] < groups[a].count) break;
-        index[a] = 0;
-      }
+    std::vector<size_t> arrays;
+    for (size_t g = 0; g < groups.size(); ++g) {
+      current[g] = groups[g].array ? glm::dmat4(1.0) : power(groups[g].m, groups[g].count);
+      if (groups[g].array) arrays.push_back(g);
     }
-    return out;
+    for (;;) {
+      glm::dmat4 m(1.0);
+      for (const glm::dmat4& c : current) m = c * m;
+      fn(m);
+      size_t k = 0;
+      for (; k < arrays.size(); ++k) {
+        const size_t a = arrays[k];
+        if (++index[a] < groups[a].count) {
+          current[a] = groups[a].m * current[a];
+          break;
+        }
+        index[a] = 0;
+        current[a] = glm::dmat4(1.0);
+      }
+      if (k == arrays.size()) return;  // every index wrapped: done
+    }
+  }
+
+  // The work bound: statements executed (arrays and includes repeat them).
+  void count_statement() {
+    if (++statements_ > max_statements_)
+      check_work(0.0, "the scene (arrays and includes repeat statements)");
+  }
+  void check_work(double statements, const std::string& what) {
+    if (statements + statements_ <= max_statements_) return;
+    fail(what + " would execute " + format_count(statements + statements_) +
+         " MGF statements, above " + format_count(max_statements_) + " (" +
+         format_count(kStatementsPerPolygon) + " per polygon of the limit; raise it with " +
+         "--limits polygons=N if this machine can afford it)");
   }
 
   void push_transform(const glm::dmat4& local, int line) {
@@ -498,12 +582,13 @@ class Reader {
     } else if (key == "fh") {
       fail("'fh' (face with holes) is not supported; express the face as convex polygons");
     } else if (std::isalpha(static_cast<unsigned char>(key[0]))) {
-      fail("unknown entity '" + key + "'");
+      fail("unknown entity '" + quoted(key) + "'");
     } else {
       // Not an entity at all: MGF keywords begin with a letter. office1/graz.mgf has three such
       // lines (paths left over from a mail header). MGF's own parser skips unknown entities with
       // a warning; radlab does that only for words that cannot be entities, and rejects the rest.
-      if (warn("'" + key + "' is not an MGF entity (keywords begin with a letter); line skipped"))
+      if (warn("'" + quoted(key) +
+               "' is not an MGF entity (keywords begin with a letter); line skipped"))
         ++stats_.ignored_lines;
     }
   }
@@ -670,6 +755,9 @@ class Reader {
     for (Vec3& p : polygon) p = Vec3(xf.m * glm::dvec4(p, 1.0));
     if (xf.flips) std::reverse(polygon.begin(), polygon.end());
     const int material = material_index();
+    if (double(scene_.polygons.size()) + 1 > limits().polygons)
+      check_limit("polygons", double(scene_.polygons.size()) + 1,
+                  location() + "the scene after includes and array instances");
     scene_.polygons.push_back(
         Polygon{std::move(polygon), material, file_->path + ":" + std::to_string(where_->line)});
   }
@@ -821,7 +909,7 @@ class Reader {
 
   double parse_number(const std::string& word, const std::string& what) {
     auto v = text::parse_double(word);
-    if (!v || !std::isfinite(*v)) fail(what + ": '" + word + "' is not a finite number");
+    if (!v || !std::isfinite(*v)) fail(what + ": '" + quoted(word) + "' is not a finite number");
     return *v;
   }
 
@@ -863,6 +951,10 @@ class Reader {
   std::map<std::string, std::unique_ptr<ParsedFile>> files_;
   std::vector<Frame> frames_;
   std::vector<std::string> includes_;  // "file:line" of each active include
+  fs::path root_;                      // includes must lie inside it (canonical)
+  long include_count_ = 0;
+  double statements_ = 0;  // executed so far
+  double max_statements_ = 0;
   std::set<std::string> warned_;
   const ParsedFile* file_ = nullptr;
   const Statement* where_ = nullptr;

@@ -8,10 +8,11 @@
 //   (outward unless radii or length are negative; rings face along their centre's normal).
 // - Contexts: `o` (objects, nesting), `xf` (transforms -t -rx -ry -rz -s -mx -my -mz -i -a, arrays
 //   included, composed as MGF prescribes: an inner context's arguments act first), `i` includes
-//   (relative to the including file, with optional transform), vertex `v`/`p`/`n`, colour `c`,
-//   material `m`. Names are global (MGF's rule: `v name` "reestablishes a previous context"
-//   wherever it was defined); a later `v name =` replaces an earlier one. Every context opened in a
-//   file must be closed in that file.
+//   (relative to the including file, with optional transform; regular files inside the
+//   scene's folder or MgfOptions::include_root only; at most 10,000 inclusions and 32 levels),
+//   vertex `v`/`p`/`n`, colour `c`, material `m`. Names are global (MGF's rule: `v name`
+//   "reestablishes a previous context" wherever it was defined); a later `v name =` replaces an
+//   earlier one. Every context opened in a file must be closed in that file.
 // - Materials: `rd` with its colour is the reflectance, `ed` (lumens per m^2) with its colour the
 //   emission, both converted from CIE (x, y) + luminance to linear RGB (Rec. 709 primaries, equal-
 //   energy white, see scene/cie_colour.h). `rs`, `ts`, `td`, `ir` and `sides` are read, checked
@@ -36,6 +37,10 @@ struct MgfOptions {
   int quarter_circle_divisions = 4;
   // Print the warnings (summarised) on stderr.
   bool print_warnings = true;
+  // Includes must resolve inside this folder (empty: the folder of the file read). Reading a
+  // file outside the scene's own folder is an explicit choice (`--mgf-include-root DIR`): a
+  // scene file must not make radlab read arbitrary files (e.g. `i /etc/passwd`).
+  std::string include_root;
 };
 
 // What the reader did, for `radlab scenes`, tests and docs.

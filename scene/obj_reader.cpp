@@ -14,11 +14,20 @@ namespace radlab {
 namespace {
 
 struct LineReader {
-  explicit LineReader(const std::string& file) : path(file), in(file) {
+  explicit LineReader(const std::string& file) : path(file) {
+    // Regular files only: /dev/zero would be one endless line.
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(file, ec))
+      throw InputError(file + ": not a regular file");
+    in.open(file);
     if (!in) throw InputError(file + ": cannot open file");
   }
   bool next(std::string& line) {
-    if (!std::getline(in, line)) return false;
+    if (!std::getline(in, line)) {
+      // A failed read is not the end of the file.
+      if (in.bad()) throw InputError(path + ":" + std::to_string(number + 1) + ": read error");
+      return false;
+    }
     ++number;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     return true;
@@ -48,10 +57,20 @@ Rgb parse_rgb(const LineReader& reader, const std::vector<std::string_view>& tok
   return c;
 }
 
+// MTL statements other than newmtl, Kd and Ke that renderers write (Wavefront's MTL
+// specification and the PBR extension): read and ignored without a warning.
+bool known_mtl_key(std::string_view key) {
+  static const std::set<std::string_view> known = {
+      "Ka",    "Ks",   "Ns", "Ni", "d",  "Tr", "Tf",  "illum", "sharpness", "bump", "disp",
+      "decal", "refl", "Pr", "Pm", "Ps", "Pc", "Pcr", "aniso", "anisor",    "norm"};
+  return known.count(key) || text::starts_with(key, "map_");
+}
+
 void read_mtl(const std::string& path, Scene& scene, std::map<std::string, int>& by_name) {
   LineReader reader(path);
   std::string line;
   int current = -1;
+  std::set<std::string> warned;
   while (reader.next(line)) {
     auto tokens = text::split_whitespace(line);
     if (tokens.empty() || tokens[0].front() == '#') continue;
@@ -74,8 +93,15 @@ void read_mtl(const std::string& path, Scene& scene, std::map<std::string, int>&
       if (key == "Ke" && !(c.x >= 0 && c.y >= 0 && c.z >= 0 && std::isfinite(c.x) &&
                            std::isfinite(c.y) && std::isfinite(c.z)))
         reader.fail("material '" + m.name + "': Ke (emission) must be finite and >= 0");
+    } else if (!known_mtl_key(key) && warned.insert(std::string(key)).second) {
+      // Everything else known (Ka, Ks, Ns, Ni, d, Tr, illum, map_*, ...) does not affect
+      // diffuse radiosity. An unknown key is most likely a misspelling (MTL keys are
+      // case-sensitive: `kd` is not `Kd`, and a material without Kd is black): named, once per
+      // key and file.
+      log::warning(path + ":" + std::to_string(reader.number) + ": unknown MTL statement '" +
+                   std::string(key).substr(0, 24) +
+                   "' ignored (keys are case-sensitive; radlab reads Kd and Ke)");
     }
-    // Everything else (Ka, Ks, Ns, Ni, d, Tr, illum, map_*) does not affect diffuse radiosity.
   }
 }
 
@@ -145,12 +171,13 @@ Scene read_obj(const std::string& path) {
       if (tokens.size() < 2) reader.fail("'mtllib' needs a file name");
       for (size_t i = 1; i < tokens.size(); ++i) {
         std::filesystem::path lib = folder / std::string(tokens[i]);
-        if (!std::filesystem::exists(lib))
-          reader.fail("'mtllib': material library '" + lib.string() + "' not found");
+        if (!std::filesystem::is_regular_file(lib))
+          reader.fail("'mtllib': material library '" + lib.string() +
+                      "' not found (or not a regular file)");
         read_mtl(lib.string(), scene, by_name);
       }
     } else if (!ignored.count(key)) {
-      reader.fail("unknown statement '" + std::string(key) + "'");
+      reader.fail("unknown statement '" + std::string(key).substr(0, 24) + "'");
     }
   }
   if (scene.polygons.empty()) throw InputError(path + ": no faces ('f' lines) in the file");

@@ -7,6 +7,8 @@
 #include <numbers>
 
 #include "core/error.h"
+#include "core/limits.h"
+#include "core/text.h"
 
 namespace radlab {
 namespace {
@@ -52,14 +54,24 @@ class Builder {
     return int(scene_.materials.size() - 1);
   }
 
+  // Patches along an edge, counted in double before it becomes an int (patch=1e-300 asks for
+  // 10^300): more than the polygon limit along one edge is refused here, the total in grid().
   int pieces(double length) const {
-    return std::max(1, static_cast<int>(std::lround(length / patch_)));
+    const double n = std::max(1.0, std::round(length / patch_));
+    if (!(n <= limits().polygons))
+      check_limit("polygons", n,
+                  context_ + ": 'patch' = " + text::format_double(patch_) + " along a " +
+                      text::format_double(length) + " m edge makes");
+    if (n > 1e9) throw InputError(context_ + ": 'patch' is too small for 32-bit patch counts");
+    return int(n);
   }
 
   // The parallelogram o + s u + t v, s, t in [0, 1], as nu x nv patches whose front side faces
   // along `facing`; material_of(centre) picks each patch's material from its centre.
   void grid(const Vec3& o, Vec3 u, Vec3 v, int nu, int nv, const Vec3& facing,
             const MaterialOf& material_of, const std::string& name) {
+    check_limit("polygons", double(scene_.polygons.size()) + double(nu) * double(nv),
+                context_ + ": 'patch' = " + text::format_double(patch_) + " makes");
     if (glm::dot(glm::cross(u, v), facing) < 0) {
       std::swap(u, v);
       std::swap(nu, nv);

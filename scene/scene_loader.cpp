@@ -9,6 +9,18 @@
 #include "scene/obj_reader.h"
 
 namespace radlab {
+namespace {
+
+std::string& include_root() {
+  static std::string folder;
+  return folder;
+}
+
+}  // namespace
+
+void set_mgf_include_root(const std::string& folder) {
+  include_root() = folder;
+}
 
 LoadedScene load_scene(const std::string& spec, bool print, bool keep_overlaps) {
   LoadedScene loaded;
@@ -17,11 +29,15 @@ LoadedScene load_scene(const std::string& spec, bool print, bool keep_overlaps) 
   } else {
     const std::string extension = text::to_lower(std::filesystem::path(spec).extension().string());
     if (!std::filesystem::exists(spec)) throw InputError(spec + ": no such file");
+    std::error_code ec;
+    if ((extension == ".obj" || extension == ".mgf") && !std::filesystem::is_regular_file(spec, ec))
+      throw InputError(spec + ": not a regular file");
     if (extension == ".obj") {
       loaded.scene = read_obj(spec);
     } else if (extension == ".mgf") {
       MgfOptions options;
       options.print_warnings = print;
+      options.include_root = include_root();
       loaded.scene = read_mgf(spec, options);
     } else {
       throw InputError(

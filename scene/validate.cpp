@@ -5,6 +5,7 @@
 
 #include "core/error.h"
 #include "core/log.h"
+#include "core/text.h"
 #include "scene/geometry.h"
 
 namespace radlab {
@@ -17,9 +18,12 @@ void check_material(const Material& m) {
       throw InputError("material '" + m.name + "': reflectance must lie in [0,1] in every channel" +
                        ", got " + std::to_string(rho) + " in channel " + "rgb"[c]);
     double e = m.emission[c];
-    if (!(e >= 0.0) || std::isinf(e))
-      throw InputError("material '" + m.name + "': emission must be finite and >= 0, got " +
-                       std::to_string(e) + " in channel " + "rgb"[c]);
+    // Bounded, not only finite: radiosities reach E / (1 - rho) and the error metrics square
+    // them, which overflows double near 1e154 (emission=1e308 printed rms_rel -nan). Nothing
+    // physical comes near the bound (the Sun's surface emits 6.3e7 W/m^2).
+    if (!(e >= 0.0 && e <= kMaxEmission))
+      throw InputError("material '" + m.name + "': emission must lie in [0, 1e30], got " +
+                       text::format_double(e) + " in channel " + "rgb"[c]);
   }
 }
 
@@ -86,6 +90,40 @@ std::vector<std::vector<Vec3>> split_non_planar(const std::vector<Vec3>& v) {
   return out;
 }
 
+// Whether two edges of the polygon, not neighbours, cross at a point inside both (a pentagram,
+// a bow tie): its turns can all agree (a pentagram passes the convexity test, winding twice),
+// but no split into triangles covers it honestly. Edges that only touch or overlap along a
+// line (the seam of a face with a hole, common in MGF exports) do not count.
+// Works in the plane of the largest Newell component; O(n^2) pairs, n <= kMaxPolygonCorners.
+bool self_intersecting(const std::vector<Vec3>& v, size_t& first, size_t& second) {
+  const size_t n = v.size();
+  if (n < 4) return false;
+  const Vec3 normal = geometry::newell_vector(v);
+  int drop = 0;
+  for (int k = 1; k < 3; ++k)
+    if (std::abs(normal[k]) > std::abs(normal[drop])) drop = k;
+  const int a = (drop + 1) % 3, b = (drop + 2) % 3;
+  const double d = geometry::diameter(v);
+  const double eps = 1e-9 * d * d;
+  auto orient = [&](const Vec3& p, const Vec3& q, const Vec3& r) {
+    return (q[a] - p[a]) * (r[b] - p[b]) - (q[b] - p[b]) * (r[a] - p[a]);
+  };
+  for (size_t i = 0; i < n; ++i)
+    for (size_t j = i + 2; j < n; ++j) {
+      if (i == 0 && j == n - 1) continue;  // neighbours through the closing edge
+      const Vec3 &p = v[i], &q = v[(i + 1) % n], &r = v[j], &t = v[(j + 1) % n];
+      const double o1 = orient(p, q, r), o2 = orient(p, q, t);
+      const double o3 = orient(r, t, p), o4 = orient(r, t, q);
+      if (((o1 > eps && o2 < -eps) || (o1 < -eps && o2 > eps)) &&
+          ((o3 > eps && o4 < -eps) || (o3 < -eps && o4 > eps))) {
+        first = i;
+        second = j;
+        return true;
+      }
+    }
+  return false;
+}
+
 bool degenerate(const std::vector<Vec3>& v) {
   if (v.size() < 3) return true;
   double d = geometry::diameter(v);
@@ -103,9 +141,16 @@ ValidationReport validate_scene(Scene& scene, bool keep_overlaps) {
   for (Polygon& polygon : scene.polygons) {
     if (polygon.material < 0 || size_t(polygon.material) >= scene.materials.size())
       throw InputError(polygon.origin + ": polygon refers to a material that does not exist");
+    // Bounded before any all-pairs geometry (diameter, ear clipping) runs on it.
+    if (polygon.vertices.size() > kMaxPolygonCorners)
+      throw InputError(polygon.origin + ": polygon has " + std::to_string(polygon.vertices.size()) +
+                       " corners; radlab accepts at most " + std::to_string(kMaxPolygonCorners) +
+                       " (split it into smaller polygons)");
     for (const Vec3& p : polygon.vertices)
-      if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-        throw InputError(polygon.origin + ": polygon has a non-finite vertex coordinate");
+      if (!(std::abs(p.x) <= kMaxCoordinate && std::abs(p.y) <= kMaxCoordinate &&
+            std::abs(p.z) <= kMaxCoordinate))
+        throw InputError(polygon.origin + ": polygon has a vertex coordinate that is not finite " +
+                         "or beyond 1e12 m (areas and kernels would overflow)");
     std::vector<Vec3> v = merge_repeated(polygon.vertices);
     if (degenerate(v)) {
       report.warnings.push_back(polygon.origin + ": zero-area or degenerate polygon (" +
@@ -113,6 +158,11 @@ ValidationReport validate_scene(Scene& scene, bool keep_overlaps) {
       ++report.dropped;
       continue;
     }
+    size_t first = 0, second = 0;
+    if (self_intersecting(v, first, second))
+      throw InputError(polygon.origin + ": self-intersecting polygon (its edges " +
+                       std::to_string(first + 1) + " and " + std::to_string(second + 1) +
+                       " cross); split it into simple polygons");
     double defect = geometry::planarity_defect(v);
     double diameter = geometry::diameter(v);
     std::vector<std::vector<Vec3>> pieces;

@@ -9,6 +9,8 @@
 // - planar but non-convex: split into triangles by ear clipping;
 // - coincident overlapping polygons (scene/overlap.h): same-facing overlaps removed from the later
 //   polygon unless `keep_overlaps`, back-to-back ones reported.
+// - self-intersecting (two edges cross, e.g. a pentagram), more than kMaxPolygonCorners corners,
+//   coordinates beyond kMaxCoordinate, emission beyond kMaxEmission: InputError.
 #pragma once
 
 #include <string>
@@ -23,6 +25,12 @@ namespace radlab {
 // the polygon's diameter. 1e-4 is 0.1 mm on a 1 m wall, well above the rounding of any scene
 // file and well below any defect a modeller meant; the Cornell box's red wall (~0.8 mm) exceeds it.
 inline constexpr double kPlanarityTolerance = 1e-4;
+
+// Input bounds (docs/reliability_input.md): corners per polygon (the checks below are O(n^2);
+// the largest RenderPark face has 74), vertex coordinates (m) and emission.
+inline constexpr size_t kMaxPolygonCorners = 512;
+inline constexpr double kMaxCoordinate = 1e12;
+inline constexpr double kMaxEmission = 1e30;
 
 struct ValidationReport {
   std::vector<std::string> warnings;

@@ -1,0 +1,70 @@
+#include "fuzz/targets.h"
+
+#include <filesystem>
+
+#include "core/error.h"
+#include "experiments/experiment_spec.h"
+#include "experiments/merge.h"
+#include "fuzz/fuzz_support.h"
+#include "scene/mesh.h"
+#include "scene/scene_loader.h"
+
+namespace radlab::fuzz {
+namespace {
+
+// Reads a scene the way the command line does and meshes it at the default subdivision.
+void load_and_mesh(const std::filesystem::path& path) {
+  try {
+    LoadedScene loaded = load_scene(path.string(), false);
+    build_mesh(loaded.scene, MeshOptions{});
+  } catch (const Error&) {
+    // A refusal with a message: the expected outcome for most mutated inputs.
+  }
+}
+
+}  // namespace
+
+void run_obj(const uint8_t* data, size_t size) {
+  const auto parts = split_parts(data, size, 2);
+  clear_scratch();
+  write_file(scratch() / "scene.obj", parts[0]);
+  write_file(scratch() / "m.mtl", parts[1]);
+  load_and_mesh(scratch() / "scene.obj");
+}
+
+void run_mgf(const uint8_t* data, size_t size) {
+  const auto parts = split_parts(data, size, 2);
+  clear_scratch();
+  write_file(scratch() / "main.mgf", parts[0]);
+  write_file(scratch() / "inc.mgf", parts[1]);
+  load_and_mesh(scratch() / "main.mgf");
+}
+
+void run_toml(const uint8_t* data, size_t size) {
+  const auto parts = split_parts(data, size, 1);
+  clear_scratch();
+  const auto file = scratch() / "experiment.toml";
+  write_file(file, parts[0]);
+  try {
+    plan_sweep(read_experiment(file.string()));
+  } catch (const Error&) {
+  }
+}
+
+void run_merge(const uint8_t* data, size_t size) {
+  // Only the public merge_sweeps() is used: the harness does not depend on how merge parses
+  // JSON or CSV.
+  const auto parts = split_parts(data, size, 3);
+  clear_scratch();
+  const auto shard = scratch() / "shard";
+  std::filesystem::create_directories(shard / "runs");
+  write_file(shard / "sweep.json", parts[0]);
+  write_file(shard / "summary.csv", parts[1]);
+  write_file(shard / "trace.csv", parts[2]);
+  try {
+    merge_sweeps({shard.string()}, (scratch() / "merged").string(), "fuzz");
+  } catch (const Error&) {
+  }
+}
+
+}  // namespace radlab::fuzz
