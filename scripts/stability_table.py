@@ -272,6 +272,12 @@ def write(args, exp, cells, refs, output):
     w(f"**{len(cells)} cells; {nfalse} with a false verdict** (marked **FALSE** and explained "
       "below).")
     w("")
+    for c in cells:
+        if c["false"]:
+            w(f"- **FALSE** `{c['spec'].replace('builtin:', '')}` × {c['solver']}: "
+              + "; ".join(c["false"]).replace("|", "/"))
+    if nfalse:
+        w("")
     w("## Overview")
     w("")
     w("| solver | " + " | ".join(f"`{s.replace('builtin:', '')}`" for s in scenes) + " |")
