@@ -77,7 +77,8 @@ def main():
             ax.plot([s - args.shots for s in steps], [b[s] - a[s] for s in steps], color=name,
                     label=name)
         ax.axhline(0, color="k", lw=0.8)
-        ax.set_xlabel("gathers after the shooting session of %d shots" % args.shots)
+        ax.set_xlabel("steps after the first shooting session of %d shots (then sessions of "
+                      "gathers and shots alternate)" % args.shots)
         ax.set_ylabel("mean |p|: interleaving − pure shooting")
         ax.set_title(f"builtin:{scene}: below zero, interleaving leads")
         ax.grid(True, alpha=0.3)
