@@ -1,8 +1,10 @@
 #include "core/csv.h"
 
 #include <cmath>
+#include <exception>
 
 #include "core/error.h"
+#include "core/log.h"
 #include "core/text.h"
 
 namespace radlab {
@@ -18,10 +20,30 @@ std::string csv_field(const std::string& text) {
 }
 
 CsvWriter::CsvWriter(const std::string& path, std::vector<std::string> columns)
-    : path_(path), out_(path), columns_(std::move(columns)) {
-  if (!out_) throw InputError(path + ": cannot write file");
-  for (size_t k = 0; k < columns_.size(); ++k) out_ << (k ? "," : "") << columns_[k];
-  out_ << '\n';
+    : path_(path),
+      out_(std::make_unique<OutputFile>(path)),
+      columns_(std::move(columns)),
+      uncaught_(std::uncaught_exceptions()) {
+  std::string line;
+  for (size_t k = 0; k < columns_.size(); ++k) line += (k ? "," : "") + columns_[k];
+  out_->write(line + '\n');
+}
+
+CsvWriter::~CsvWriter() {
+  if (!out_ || out_->committed() || std::uncaught_exceptions() > uncaught_) return;
+  try {
+    out_->commit();
+  } catch (const std::exception& e) {
+    log::warning(e.what());
+  }
+}
+
+void CsvWriter::flush() {
+  out_->flush();
+}
+
+void CsvWriter::close() {
+  out_->commit();
 }
 
 CsvWriter& CsvWriter::add(const std::string& text) {
@@ -48,10 +70,11 @@ void CsvWriter::end_row() {
   if (fields_.size() != columns_.size())
     throw std::logic_error(path_ + ": CSV row has " + std::to_string(fields_.size()) +
                            " fields, header has " + std::to_string(columns_.size()));
-  for (size_t k = 0; k < fields_.size(); ++k) out_ << (k ? "," : "") << fields_[k];
-  out_ << '\n';
+  std::string line;
+  for (size_t k = 0; k < fields_.size(); ++k) line += (k ? "," : "") + fields_[k];
+  line += '\n';
+  out_->write(line);
   fields_.clear();
-  if (!out_) throw InputError(path_ + ": write failed");
 }
 
 }  // namespace radlab

@@ -1,16 +1,25 @@
 // CSV output with a fixed header: every row must have exactly the header's columns, so columns
 // cannot drift (DESIGN §8). Doubles are written "%.17g"; NaN (not applicable) as an empty field.
+// The file is written to a temporary name and appears under its own name only when close()
+// has checked every byte reached the disk (core/output_file.h); a failed write throws InputError.
 #pragma once
 
-#include <fstream>
+#include <memory>
 #include <string>
 #include <vector>
+
+#include "core/output_file.h"
 
 namespace radlab {
 
 class CsvWriter {
  public:
   CsvWriter(const std::string& path, std::vector<std::string> columns);
+  // Without close(), the destructor still renames the file into place when no exception is
+  // propagating (and only warns if that fails); every command calls close() to see errors.
+  ~CsvWriter();
+  CsvWriter(const CsvWriter&) = delete;
+  CsvWriter& operator=(const CsvWriter&) = delete;
   const std::vector<std::string>& columns() const { return columns_; }
 
   // Row building: add fields in header order, then end_row() checks the count.
@@ -21,12 +30,16 @@ class CsvWriter {
   CsvWriter& add(int number) { return add(static_cast<long long>(number)); }
   CsvWriter& add(size_t number) { return add(static_cast<unsigned long long>(number)); }
   void end_row();
-  void flush() { out_.flush(); }
+  // Hands the rows so far to the system (errors so far throw).
+  void flush();
+  // Closes, checks and renames the file into place; throws InputError naming it on failure.
+  void close();
 
  private:
   std::string path_;
-  std::ofstream out_;
+  std::unique_ptr<OutputFile> out_;
   std::vector<std::string> columns_;
+  int uncaught_ = 0;
   std::vector<std::string> fields_;
 };
 

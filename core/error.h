@@ -1,6 +1,6 @@
 // Errors that reach the user. Each carries the process exit code the command line returns
-// (DESIGN §7): 2 usage, 3 invalid input, 4 numerical failure. Messages name the file, line,
-// element or key at fault; the command line prints them verbatim.
+// (DESIGN §7): 2 usage, 3 invalid input, 4 numerical failure, 5 tolerance not reached. Messages
+// name the file, line, element or key at fault; the command line prints them verbatim.
 #pragma once
 
 #include <stdexcept>
@@ -8,7 +8,15 @@
 
 namespace radlab {
 
-enum class ExitCode : int { kOk = 0, kUsage = 2, kInvalidInput = 3, kNumerical = 4 };
+// 5: the run finished and wrote its outputs, but the tolerance it was asked for (--tol) was not
+// reached before another budget stopped it.
+enum class ExitCode : int {
+  kOk = 0,
+  kUsage = 2,
+  kInvalidInput = 3,
+  kNumerical = 4,
+  kToleranceNotReached = 5
+};
 
 class Error : public std::runtime_error {
  public:

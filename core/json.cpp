@@ -2,9 +2,9 @@
 
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 
 #include "core/error.h"
+#include "core/output_file.h"
 
 namespace radlab {
 
@@ -150,10 +150,9 @@ JsonWriter& JsonWriter::field(const std::string& name, const std::vector<std::st
 }
 
 void JsonWriter::save(const std::string& path) const {
-  std::ofstream out(path);
-  if (!out) throw InputError(path + ": cannot write file");
-  out << out_;
-  if (!out) throw InputError(path + ": write failed");
+  OutputFile out(path);
+  out.write(out_);
+  out.commit();
 }
 
 }  // namespace radlab

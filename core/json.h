@@ -32,7 +32,8 @@ class JsonWriter {
   JsonWriter& field(const std::string& name, const std::vector<std::string>& items);
 
   const std::string& str() const { return out_; }
-  // Writes to `path`; throws InputError if it cannot.
+  // Writes to `path` through a temporary name (core/output_file.h); throws InputError naming
+  // the file if it cannot.
   void save(const std::string& path) const;
 
  private:

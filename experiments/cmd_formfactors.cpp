@@ -4,6 +4,7 @@
 
 #include "core/csv.h"
 #include "core/log.h"
+#include "core/output_file.h"
 #include "experiments/cli_common.h"
 
 namespace radlab::cli {
@@ -17,6 +18,7 @@ void add_formfactors_command(CLI::App& app) {
   add_form_factor_options(*command, *ff, false);
   command->add_option("--out", *out, "CSV of the non-zero entries: i,j,F");
   command->callback([scene, ff, out]() {
+    if (!out->empty()) check_writable(*out);  // before the computation, not after it
     ProblemSpec spec = make_spec(*scene, *ff);
     spec.need_reference = false;
     spec.require_emitter = false;
@@ -48,6 +50,7 @@ void add_formfactors_command(CLI::App& app) {
       for (size_t i = 0; i < m.size(); ++i)
         for (size_t j = 0; j < m.size(); ++j)
           if (double f = m.at(i, j); f != 0.0) csv.add(i).add(j).add(f).end_row();
+      csv.close();
       log::info("wrote " + *out);
     }
   });

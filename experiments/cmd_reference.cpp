@@ -21,6 +21,7 @@ void add_reference_command(CLI::App& app) {
     std::printf("reference    %s\n", r.summary().c_str());
     std::printf("bound        ||B - B*||_inf <= %.6g  (%.3g of max B)\n", r.bound_inf,
                 r.bound_relative);
+    std::printf("certified    for %s\n", r.system.c_str());
     if (!out->empty()) {
       ensure_parent_folder(*out);
       write_radiosity_csv(*out, problem->mesh, r.B);

@@ -6,6 +6,7 @@
 
 #include "core/error.h"
 #include "core/log.h"
+#include "core/output_file.h"
 #include "experiments/cli_common.h"
 #include "experiments/outputs.h"
 #include "experiments/runner.h"
@@ -42,9 +43,10 @@ void save_image(const Problem& problem, const Radiosity& field, const std::strin
       problem.scene().camera ? *problem.scene().camera : default_camera(problem.mesh);
   Image image = render_radiosity(problem.mesh, embree, field, camera, width, height);
   ensure_parent_folder(path);
-  write_exr(path, image);
+  write_via_temporary(path, [&](const std::string& temp) { write_exr(temp, image); });
   std::string png = std::filesystem::path(path).replace_extension(".png").string();
-  write_png(png, image, auto_exposure(image));
+  write_via_temporary(
+      png, [&](const std::string& temp) { write_png(temp, image, auto_exposure(image)); });
   log::info("wrote " + path + " and " + png);
 }
 
@@ -76,6 +78,15 @@ void run(const SolveOptions& o, int argc, char** argv) {
     budget.tol = o.tol;
   }
 
+  std::string json_path = o.json;
+  if (json_path.empty() && !o.trace.empty())
+    json_path = std::filesystem::path(o.trace).replace_extension(".run.json").string();
+  // Every output can be written, before the computation rather than after it.
+  for (const std::string& path : {o.trace, o.out, o.image, json_path})
+    if (!path.empty()) check_writable(path);
+  if (!o.image.empty())
+    check_writable(std::filesystem::path(o.image).replace_extension(".png").string());
+
   ProblemSpec spec = make_spec(o.scene, o.ff);
   auto problem = prepare_problem(spec);
 
@@ -87,6 +98,7 @@ void run(const SolveOptions& o, int argc, char** argv) {
   RunLabels labels{run_id_for(o, bag.canonical()), o.scene.scene, o.solver, bag.canonical()};
   RunResult result =
       run_solver(*solver, *problem, budget, CheckpointSchedule{}, labels, trace.get());
+  if (trace) trace->close();
 
   std::printf("run          %s\n", labels.run_id.c_str());
   std::printf("stopped      %s after %lld steps, %llu form-factor rows, %.4f s\n",
@@ -97,6 +109,9 @@ void run(const SolveOptions& o, int argc, char** argv) {
                 result.final_display_errors.rms_rel);
     std::printf("certified    ||B - B*||_inf / max B* <= %.6g\n", result.final_bound_relative);
   }
+  if (result.tolerance_asked)
+    std::printf("verdict      %s\n",
+                result.tolerance_reached ? "tolerance reached" : result.tolerance_message.c_str());
   if (!o.out.empty()) {
     ensure_parent_folder(o.out);
     write_radiosity_csv(o.out, problem->mesh, solver->solution());
@@ -107,9 +122,6 @@ void run(const SolveOptions& o, int argc, char** argv) {
     save_image(*problem, o.display_image ? solver->display() : solver->solution(), o.image, o.width,
                o.height);
 
-  std::string json_path = o.json;
-  if (json_path.empty() && !o.trace.empty())
-    json_path = std::filesystem::path(o.trace).replace_extension(".run.json").string();
   if (!json_path.empty()) {
     JsonWriter json;
     json.begin_object();
@@ -124,6 +136,9 @@ void run(const SolveOptions& o, int argc, char** argv) {
     json.save(json_path);
     log::info("wrote " + json_path);
   }
+  // Everything is written; the exit code tells a script the tolerance was missed.
+  if (result.tolerance_asked && !result.tolerance_reached)
+    throw Error(ExitCode::kToleranceNotReached, labels.run_id + ": " + result.tolerance_message);
 }
 
 }  // namespace

@@ -26,6 +26,7 @@ bool write_coverage_csv(const std::string& path, const Solver& solver, const Pro
     for (const auto& column : p) csv.add(column[i]);
     csv.end_row();
   }
+  csv.close();
   return true;
 }
 

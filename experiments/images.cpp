@@ -2,6 +2,7 @@
 
 #include <cstdio>
 
+#include "core/output_file.h"
 #include "formfactor/embree_scene.h"
 #include "metrics/error_metrics.h"
 #include "render/exr_io.h"
@@ -30,8 +31,16 @@ void ImageMaker::save(const Solver& solver, long long step, const std::string& s
   const Radiosity display = solver.display();
   Image image =
       render_radiosity(problem_.mesh, *embree_, display, camera_, spec_.width, spec_.height);
-  write_exr(base + ".exr", image);
-  write_png(base + ".png", image, exposure_);
+  // Each file appears complete or not at all (core/output_file.h).
+  auto exr = [](const std::string& path, const Image& im) {
+    write_via_temporary(path, [&](const std::string& temp) { write_exr(temp, im); });
+  };
+  auto png_ldr = [](const std::string& path, const Image& im) {
+    write_via_temporary(path, [&](const std::string& temp) { write_png_ldr(temp, im); });
+  };
+  exr(base + ".exr", image);
+  write_via_temporary(base + ".png",
+                      [&](const std::string& temp) { write_png(temp, image, exposure_); });
   if (!spec_.error_maps || !problem_.reference) return;
 
   // Per-element relative error of the display solution on the mean of the channels (Cohen
@@ -46,14 +55,14 @@ void ImageMaker::save(const Solver& solver, long long step, const std::string& s
     perror[i] = p_error_colour(relative[i]);
   }
   // EXR: the signed relative error itself (for analysis); PNG: the false colours.
-  write_exr(base + "_perror.exr", render_field(problem_.mesh, *embree_, signed_error, camera_,
-                                               spec_.width, spec_.height, false));
-  write_png_ldr(base + "_cohen.png", render_field(problem_.mesh, *embree_, cohen, camera_,
-                                                  spec_.width, spec_.height, false));
-  write_png_ldr(base + "_perror.png", render_field(problem_.mesh, *embree_, perror, camera_,
-                                                   spec_.width, spec_.height, false));
-  write_exr(base + "_cohen.exr", render_field(problem_.mesh, *embree_, cohen, camera_, spec_.width,
-                                              spec_.height, false));
+  exr(base + "_perror.exr", render_field(problem_.mesh, *embree_, signed_error, camera_,
+                                         spec_.width, spec_.height, false));
+  png_ldr(base + "_cohen.png",
+          render_field(problem_.mesh, *embree_, cohen, camera_, spec_.width, spec_.height, false));
+  png_ldr(base + "_perror.png",
+          render_field(problem_.mesh, *embree_, perror, camera_, spec_.width, spec_.height, false));
+  exr(base + "_cohen.exr",
+      render_field(problem_.mesh, *embree_, cohen, camera_, spec_.width, spec_.height, false));
 }
 
 }  // namespace radlab

@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <exception>
+#include <filesystem>
 
 #include "core/error.h"
 #include "core/log.h"
@@ -30,6 +31,10 @@ int main(int argc, char** argv) {
   } catch (const radlab::Error& e) {
     std::fprintf(stderr, "radlab: error: %s\n", e.what());
     return int(e.code());
+  } catch (const std::filesystem::filesystem_error& e) {
+    // A file or folder that cannot be created, read or renamed: the input (a path) is at fault.
+    std::fprintf(stderr, "radlab: error: %s\n", e.what());
+    return int(radlab::ExitCode::kInvalidInput);
   } catch (const std::bad_alloc&) {
     std::fprintf(stderr,
                  "radlab: error: out of memory (try a coarser mesh or --ff-mode on-the-fly)\n");

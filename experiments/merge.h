@@ -2,6 +2,17 @@
 // sweep.json, in the sweep's run order, identical to an unsplit run (times aside, and the
 // command and `merged_from` in sweep.json), and gathers their run.json files, images and
 // coverage files.
+//
+// Nothing mixed: every shard must be complete (sweep.json status) and of the same sweep — the
+// experiment's name, the digest of its text, the digest of its run plan, the run count and the
+// build (git SHA, form-factor source hash) must all agree, and each difference is refused by
+// name. Each shard's summary rows must be the runs its sweep.json lists and belong to its shard;
+// a run in two shards, a trace row repeated or of a run the summary lacks, is refused.
+// Nothing lost: the shards must together hold every run of the sweep (refused otherwise, unless
+// allow_incomplete, which writes status "incomplete" and the missing runs into sweep.json).
+// Nothing half-written: everything is read and checked before anything is written; the result
+// is built in a temporary sibling of the output folder and renamed into place at the end. An
+// output folder equal to, inside, or containing a shard is refused.
 #pragma once
 
 #include <string>
@@ -9,10 +20,16 @@
 
 namespace radlab {
 
-// Returns the number of runs merged. Throws InputError on missing files, mismatched headers,
-// shards of different experiments, or a run present in two shards. `command` goes into the
-// merged sweep.json (empty: the first shard's command).
+struct MergeOptions {
+  std::string command;  // goes into the merged sweep.json (empty: the first shard's command)
+  bool allow_incomplete = false;
+};
+
+// Returns the number of runs merged. Throws InputError for everything above, and UsageError for
+// an output folder that overlaps a shard or holds something other than a sweep.
 size_t merge_sweeps(const std::vector<std::string>& shard_dirs, const std::string& out_dir,
                     const std::string& command = "");
+size_t merge_shards(const std::vector<std::string>& shard_dirs, const std::string& out_dir,
+                    const MergeOptions& options);
 
 }  // namespace radlab

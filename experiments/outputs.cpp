@@ -6,6 +6,7 @@
 
 #include "core/csv.h"
 #include "core/text.h"
+#include "formfactor/matrix_cache.h"
 #include "solvers/registry.h"
 
 #ifndef RADLAB_BUILD_TYPE
@@ -20,12 +21,14 @@ void write_radiosity_csv(const std::string& path, const Mesh& mesh, const Radios
     const auto rgb = B.rgb(i);
     csv.add(i).add(mesh.area[i]).add(rgb.x).add(rgb.y).add(rgb.z).end_row();
   }
+  csv.close();
 }
 
 void write_build_info(JsonWriter& json) {
   json.key("build").begin_object();
   json.field("radlab_version", "0.1.0");
   json.field("git_sha", build_git_sha());
+  json.field("source_hash", formfactor_code_version());
   json.field("compiler", std::string("g++ ") + __VERSION__);
   json.field("build_type", RADLAB_BUILD_TYPE);
   json.field("threads", tbb::info::default_concurrency());
@@ -87,6 +90,7 @@ void write_problem_info(JsonWriter& json, const Problem& p) {
     const Reference& r = *p.reference;
     json.key("reference").begin_object();
     json.field("method", r.method);
+    json.field("certified_system", r.system);
     json.field("bound_inf", r.bound_inf);
     json.field("bound_relative", r.bound_relative);
     json.field("residual_inf", r.residual_inf);
@@ -128,6 +132,10 @@ void write_run_result(JsonWriter& json, const Budget& budget, const RunResult& r
   json.field("p_max", r.final_errors.p_max);
   json.field("rms_rel_display", r.final_display_errors.rms_rel);
   json.field("bound_relative", r.final_bound_relative);
+  if (r.tolerance_asked) {
+    json.field("tolerance_reached", r.tolerance_reached);
+    if (!r.tolerance_reached) json.field("tolerance_message", r.tolerance_message);
+  }
   json.end_object();
 }
 

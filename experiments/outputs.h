@@ -19,7 +19,8 @@ void write_radiosity_csv(const std::string& path, const Mesh& mesh, const Radios
 // at build time by cmake/GitSha.cmake.
 const char* build_git_sha();
 
-// Facts about the build and the machine: git SHA, compiler, build type, threads.
+// Facts about the build and the machine: git SHA, form-factor source hash, compiler, build
+// type, threads.
 void write_build_info(JsonWriter& json);
 
 // Everything about the problem: scene, mesh, form factors, what was left out, reference.

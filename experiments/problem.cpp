@@ -7,6 +7,20 @@
 #include "formfactor/matrix_cache.h"
 
 namespace radlab {
+namespace {
+
+// The float storage of a double matrix: every entry rounded to nearest.
+FormFactorMatrix round_to_float(const FormFactorMatrix& F) {
+  FormFactorMatrix out(F.size(), Precision::kFloat);
+  for (size_t i = 0; i < F.size(); ++i) {
+    const double* row = F.row_f64(i);
+    float* dst = out.row_f32(i);
+    for (size_t j = 0; j < F.size(); ++j) dst[j] = float(row[j]);
+  }
+  return out;
+}
+
+}  // namespace
 
 std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
   auto problem = std::make_unique<Problem>();
@@ -50,19 +64,27 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
   MatrixCacheKey key;
   if (!cache_dir.empty()) {
     cache.emplace(cache_dir);
+    // The cache holds the method's matrix in double; float storage is its rounding, made below.
     key = matrix_cache_key(problem->mesh, problem->method->name(), problem->method->parameters(),
-                           precision);
+                           Precision::kDouble);
   }
   if (spec.row_mode == RowMode::kCached || spec.need_reference) {
     std::optional<FormFactorMatrix> cached =
         cache ? cache->load(key, &problem->build) : std::nullopt;
+    // A miss: hold the key's lock while building and storing, so that concurrent processes
+    // (shards on an empty cache) build the matrix once; a waiter finds it stored and loads it.
+    std::unique_ptr<FileLock> building;
+    if (cache && !cached) {
+      building = cache->lock(key);
+      cached = cache->load(key, &problem->build);
+    }
     if (cached) {
       problem->matrix = std::move(*cached);
       log::info("form factors: " + problem->build.summary());
     } else {
       Progress progress("form factors (" + spec.ff_method + ", " + std::to_string(n) + " rows)",
                         "rows", double(n));
-      problem->matrix = build_matrix(*problem->method, n, precision, problem->build,
+      problem->matrix = build_matrix(*problem->method, n, Precision::kDouble, problem->build,
                                      [&](size_t done, size_t) { progress.update(double(done)); });
       progress.finish(std::to_string(problem->build.cost.rays) + " visibility rays");
       log::info("form factors: " + problem->build.summary());
@@ -76,11 +98,23 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
                            "': " + problem->raw_diagnostics.summary());
     if (cache && !problem->build.cached && cache->store(key, problem->matrix, problem->build))
       problem->build.cache_file = cache->path(key).string();
+    building.reset();
     if (symmetrise_ff) {
       log::info("form factors (as computed): " + problem->raw_diagnostics.summary());
       symmetrise(problem->matrix, problem->mesh.area);
+    }
+    // Float storage: the solvers read the rounding of the double matrix, and the reference and
+    // bounds stay on the double one (the system the method computed; docs/reference.md).
+    if (precision == Precision::kFloat && spec.row_mode == RowMode::kCached) {
+      problem->computed = std::move(problem->matrix);
+      problem->matrix = round_to_float(problem->computed);
+    }
+    if (symmetrise_ff || precision == Precision::kFloat) {
       problem->diagnostics = diagnose(problem->matrix, problem->mesh.area);
-      log::info("form factors (symmetrised): " + problem->diagnostics.summary());
+      log::info(std::string("form factors (") + (symmetrise_ff ? "symmetrised" : "") +
+                (symmetrise_ff && precision == Precision::kFloat ? ", " : "") +
+                (precision == Precision::kFloat ? "stored in float" : "") +
+                "): " + problem->diagnostics.summary());
     } else {
       problem->diagnostics = problem->raw_diagnostics;
       log::info("form factors: " + problem->diagnostics.summary());
@@ -94,18 +128,31 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
 
   if (spec.need_reference) {
     Progress progress("reference solution (" + std::to_string(n) + " elements)", "", 0);
-    System cached(problem->scene(), problem->mesh, problem->matrix);
+    const FormFactorMatrix& certified = problem->certified_matrix();
+    System cached(problem->scene(), problem->mesh, certified);
     std::optional<ReferenceCache> references;
     ReferenceCacheKey reference_key;
     if (cache) {
       references.emplace(cache_dir);
       reference_key = reference_cache_key(key, symmetrise_ff, cached, {});
-      problem->reference = references->load(reference_key, cached, problem->matrix, {});
+      problem->reference = references->load(reference_key, cached, certified, {});
+    }
+    std::unique_ptr<FileLock> computing;  // as for the matrix: computed once, others wait
+    if (references && !problem->reference) {
+      computing = references->lock(reference_key);
+      problem->reference = references->load(reference_key, cached, certified, {});
     }
     if (!problem->reference) {
-      problem->reference = compute_reference(cached, problem->matrix);
+      problem->reference = compute_reference(cached, certified);
       if (references) references->store(reference_key, *problem->reference);
     }
+    problem->reference->system =
+        "F of " + spec.ff_method + " in double precision, as computed" +
+        (symmetrise_ff ? ", then symmetrised (symmetrise=true, the default with cached rows: a "
+                         "chosen change of the system; symmetrise=false certifies the method's own)"
+                       : "") +
+        (precision == Precision::kFloat ? "; solvers read it rounded to float" : "");
+    computing.reset();
     progress.finish();
     log::info("reference: " + problem->reference->summary());
   }

@@ -40,7 +40,12 @@ struct Problem {
   Mesh mesh;
   std::unique_ptr<FormFactorMethod> method;
   std::string ff_parameters;  // resolved, canonical
-  FormFactorMatrix matrix;    // empty (size 0) for streaming runs without a reference
+  FormFactorMatrix matrix;    // what the solvers read; empty (size 0) for streaming runs
+                              // without a reference
+  // The method's matrix in double precision when `matrix` is its float rounding (--precision
+  // float with cached rows); empty otherwise. The reference and every certified bound are of
+  // this system, the one the method computed, whatever the storage (docs/reference.md).
+  FormFactorMatrix computed;
   BuildReport build;
   MatrixDiagnostics diagnostics;      // of the matrix the solvers use (symmetrised if asked)
   MatrixDiagnostics raw_diagnostics;  // of the matrix as the method computed it
@@ -49,6 +54,10 @@ struct Problem {
 
   const Scene& scene() const { return loaded.scene; }
   bool has_matrix() const { return matrix.size() > 0; }
+  // The matrix the reference solves and certifies against: always double precision.
+  const FormFactorMatrix& certified_matrix() const {
+    return computed.size() > 0 ? computed : matrix;
+  }
 };
 
 // Loads, meshes, builds the matrix (with progress on stderr) and, if asked, the reference.

@@ -2,7 +2,6 @@
 
 #include <unistd.h>
 
-#include <atomic>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -10,6 +9,7 @@
 
 #include "core/error.h"
 #include "core/log.h"
+#include "core/output_file.h"
 
 namespace radlab {
 namespace {
@@ -162,29 +162,25 @@ bool ReferenceCache::store(const ReferenceCacheKey& key, const Reference& ref) c
   const uint64_t checksum = hash_bytes(bytes.data(), bytes.size(), kChecksumSeed);
   append(bytes, &checksum, 1);
 
-  // A name no other writer uses, renamed into place once complete.
-  static std::atomic<uint64_t> counter{0};
+  remove_stale_temporaries(folder_);
   const std::filesystem::path final_path = path(key);
-  const std::filesystem::path temp =
-      final_path.string() + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(++counter);
-  bool ok = false;
-  {
-    std::ofstream out(temp, std::ios::binary);
-    out.write(bytes.data(), std::streamsize(bytes.size()));
-    out.close();
-    ok = bool(out);
+  try {
+    OutputFile out(final_path.string(), /*binary=*/true, /*sync=*/true);
+    out.write(bytes);
+    out.commit();
+  } catch (const std::exception& e) {
+    log::warning(std::string("reference cache: ") + e.what() + "; the reference is not cached");
+    return false;
   }
-  if (ok) {
-    std::filesystem::rename(temp, final_path, ec);
-    ok = !ec;
-  }
-  if (!ok) {
-    log::warning("reference cache: cannot write " + final_path.string() +
-                 "; the reference is not cached");
-    std::error_code ignored;
-    std::filesystem::remove(temp, ignored);
-  }
-  return ok;
+  return true;
+}
+
+std::unique_ptr<FileLock> ReferenceCache::lock(const ReferenceCacheKey& key) const {
+  std::error_code ec;
+  std::filesystem::create_directories(folder_, ec);
+  std::filesystem::path file = path(key);
+  file.replace_extension(".lock");
+  return FileLock::acquire(file.string(), "the same reference (" + file.string() + ")");
 }
 
 }  // namespace radlab

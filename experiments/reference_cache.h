@@ -6,6 +6,7 @@
 // reference options. A loaded reference is not trusted: recertify_reference() recomputes its
 // residual against the matrix in memory, so the certificate printed is always of this run. A
 // corrupt, stale or uncertifiable file is reported, deleted and the reference recomputed.
+// Writes, locks and the removal of stale temporaries work as in formfactor/matrix_cache.h.
 #pragma once
 
 #include <filesystem>
@@ -28,7 +29,8 @@ ReferenceCacheKey reference_cache_key(const MatrixCacheKey& matrix_key, bool sym
 
 class ReferenceCache {
  public:
-  static constexpr uint32_t kFormatVersion = 1;
+  // 2: references are of the method's double-precision matrix, whatever the storage.
+  static constexpr uint32_t kFormatVersion = 2;
 
   explicit ReferenceCache(std::filesystem::path folder) : folder_(std::move(folder)) {}
   std::filesystem::path path(const ReferenceCacheKey& key) const {
@@ -41,7 +43,11 @@ class ReferenceCache {
                                 const FormFactorMatrix& matrix,
                                 const ReferenceOptions& options) const;
 
-  // Stores atomically; failures are warnings. Returns success.
+  // As MatrixCache::lock: held while computing and storing the reference of `key`.
+  std::unique_ptr<FileLock> lock(const ReferenceCacheKey& key) const;
+
+  // Stores atomically (temporary, fsync, rename), first removing stale temporaries; failures
+  // are warnings. Returns success.
   bool store(const ReferenceCacheKey& key, const Reference& reference) const;
 
  private:

@@ -1,8 +1,9 @@
 // The runner measures; solvers compute (DESIGN §4, like Ceres' iteration callbacks and pbrt's
 // render loop). It times every step() (the clock excludes metric evaluation), evaluates the
 // metrics at a checkpoint schedule (every step early on, then geometrically spaced), writes the
-// trace, enforces the budget, and detects numerical trouble: non-finite values, divergence, and
-// stagnation when a tolerance is asked for.
+// trace, enforces the budget, and detects numerical trouble: non-finite values, divergence
+// (absolute and relative), and stagnation when a tolerance is asked for (judged over a window
+// long enough for the slowest stationary method at the scene's spectral radius; docs/reference.md).
 #pragma once
 
 #include <functional>
@@ -62,6 +63,13 @@ struct RunResult {
   ErrorMetrics final_display_errors;    // on the mean of the channels, display()
   ReflectedRms final_reflected;         // on the mean of the channels, solution() - E
   double final_bound_relative = 0.0;    // certified ||B-B*||_inf / max B*, if a matrix exists
+  // With a tolerance in the budget: whether the certified bound reached it. False means another
+  // budget (or the 1,000-sweep cap of a tolerance alone) stopped the run first; `radlab solve`
+  // then exits 5 (docs/outputs.md).
+  bool tolerance_asked = false;
+  bool tolerance_reached = false;
+  // "tolerance 1e-10 not reached: ..." when asked and not reached, else empty.
+  std::string tolerance_message;
 };
 
 // Called at every checkpoint after the metrics are written (e.g. to save images).

@@ -63,7 +63,8 @@ const std::vector<std::string>& summary_columns() {
       "pair_evals_to_rms_rel_reflected_1e-2",
       "rows_to_rms_rel_reflected_1e-3",
       "seconds_to_rms_rel_reflected_1e-3",
-      "pair_evals_to_rms_rel_reflected_1e-3"};
+      "pair_evals_to_rms_rel_reflected_1e-3",
+      "tolerance_reached"};
   // clang-format on
   return columns;
 }
@@ -188,6 +189,8 @@ void write_summary_row(CsvWriter& csv, const SummaryInputs& in, const RunResult&
   for (double threshold : {1e-1, 1e-2, 1e-3})
     for (ReachAxis axis : {kRows, kSeconds, kPairEvals})
       csv.add(first_reach(r.history, threshold, axis, ReachMetric::kRmsRelReflected));
+  // true / false with a tolerance in the budget; empty without one.
+  csv.add(std::string(r.tolerance_asked ? (r.tolerance_reached ? "true" : "false") : ""));
   csv.end_row();
 }
 

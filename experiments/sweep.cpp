@@ -4,17 +4,22 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <map>
 #include <memory>
 #include <optional>
+#include <sstream>
 
 #include "core/error.h"
 #include "core/json.h"
 #include "core/log.h"
+#include "core/output_file.h"
 #include "core/text.h"
 #include "experiments/coverage.h"
 #include "experiments/images.h"
 #include "experiments/outputs.h"
 #include "experiments/summary.h"
+#include "experiments/sweep_folder.h"
 #include "experiments/trace.h"
 #include "solvers/registry.h"
 
@@ -175,6 +180,83 @@ void write_problem_entry(JsonWriter& json, const ProblemEntry& e) {
 
 }  // namespace
 
+namespace {
+
+// sweep.json: status "running" at the start, "complete" once trace.csv and summary.csv are in
+// place. `runs` lists this shard's runs done so far.
+void write_sweep_json(const std::filesystem::path& out, const ExperimentSpec& spec,
+                      const SweepOptions& options, const SweepIdentity& identity, size_t runs_total,
+                      const char* status, const std::vector<std::string>& run_ids,
+                      const std::vector<RunFailure>& failures,
+                      const std::map<size_t, ProblemEntry>& problems) {
+  JsonWriter sweep;
+  sweep.begin_object();
+  sweep.field("experiment", spec.path);
+  sweep.field("name", spec.name);
+  sweep.field("description", spec.description);
+  sweep.field("status", status);
+  write_identity(sweep, identity);
+  sweep.field("command", options.command);
+  sweep.field("shard", identity.shard);
+  sweep.field("runs_total", runs_total);
+  sweep.field("runs", run_ids);
+  sweep.key("failed").begin_array();
+  for (const RunFailure& f : failures) {
+    sweep.begin_object();
+    sweep.field("run_index", f.run_index);
+    sweep.field("run_id", f.run_id);
+    sweep.field("exit_code", int(f.code));
+    sweep.field("error", f.message);
+    sweep.end_object();
+  }
+  sweep.end_array();
+  sweep.key("problems").begin_array();
+  for (const auto& [index, e] : problems) write_problem_entry(sweep, e);
+  sweep.end_array();
+  write_build_info(sweep);
+  sweep.end_object();
+  sweep.save((out / "sweep.json").string());
+}
+
+// A problem's sweep.json entry rebuilt from the run.json of a run done in an earlier attempt.
+ProblemEntry problem_entry_from(size_t index, const PlannedProblem& planned, const Json& run) {
+  ProblemEntry e;
+  e.index = index;
+  e.planned = &planned;
+  auto scene = run.find("scene");
+  auto mesh = run.find("mesh");
+  auto ff = run.find("form_factors");
+  if (scene != run.end() && mesh != run.end() && ff != run.end()) {
+    e.prepared = true;
+    e.polygons = scene->value("polygons", size_t(0));
+    e.channels = scene->value("channels", 0);
+    e.elements = mesh->value("elements", size_t(0));
+    e.ff_parameters = ff->value("parameters", std::string());
+  } else if (auto r = run.find("run"); r != run.end()) {
+    e.error = r->value("error", std::string());
+  }
+  return e;
+}
+
+// Appends the rows of a partial file (everything after its header line) to `out`.
+void append_rows(OutputFile& out, const std::filesystem::path& part) {
+  std::ifstream in(part, std::ios::binary);
+  if (!in) throw InputError(part.string() + ": cannot read the rows of a finished run");
+  std::string header;
+  std::getline(in, header);
+  std::ostringstream rows;
+  rows << in.rdbuf();
+  if (in.bad()) throw InputError(part.string() + ": read error");
+  out.write(rows.str());
+}
+
+// File names are at most NAME_MAX (255) bytes on every Linux file system.
+constexpr size_t kMaxFileName = 255;
+constexpr size_t kLongestSuffix =
+    sizeof("_step000000_perror.exr.tmp.4294967295.18446744073709551615");
+
+}  // namespace
+
 SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
   if (options.shard_count < 1 || options.shard_index < 0 ||
       options.shard_index >= options.shard_count)
@@ -183,14 +265,30 @@ SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
   const SweepPlan plan = plan_sweep(spec);
   namespace fs = std::filesystem;
   const fs::path out(options.out_dir);
-  fs::create_directories(out / "runs");
-  if (!spec.images.steps.empty()) fs::create_directories(out / "images");
-  if (!spec.coverage_steps.empty()) fs::create_directories(out / "coverage");
+  const SweepIdentity identity = sweep_identity(
+      spec, plan, std::to_string(options.shard_index) + "/" + std::to_string(options.shard_count));
 
-  TraceWriter trace((out / "trace.csv").string());
-  CsvWriter summary((out / "summary.csv").string(), summary_columns());
+  // One writer per folder; then decide between resuming, replacing and refusing.
+  SweepFolderLock lock(out);
+  std::string note;
+  const bool resume = prepare_sweep_folder(out, identity, options.overwrite, note);
+  if (!note.empty()) log::info(note);
+  auto make_folder = [&](const fs::path& folder) {
+    std::error_code ec;
+    fs::create_directories(folder, ec);
+    if (ec) throw InputError(folder.string() + ": cannot create folder (" + ec.message() + ")");
+  };
+  make_folder(out / "runs");
+  make_folder(partial_folder(out));
+  if (!spec.images.steps.empty()) make_folder(out / "images");
+  if (!spec.coverage_steps.empty()) make_folder(out / "coverage");
+
   SweepReport report;
   report.runs_total = plan.runs.size();
+  std::vector<std::string> run_ids;
+  std::map<size_t, ProblemEntry> problem_entries;  // for sweep.json, by problem index
+  write_sweep_json(out, spec, options, identity, plan.runs.size(), "running", run_ids,
+                   report.failures, problem_entries);
 
   std::unique_ptr<Problem> problem;
   size_t problem_index = size_t(-1);
@@ -198,11 +296,32 @@ SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
   ExitCode problem_code = ExitCode::kOk;
   SpectralRadiusBounds spectral_radius{std::nan(""), std::nan("")};
   std::unique_ptr<ImageMaker> images;
-  std::vector<std::string> run_ids;
-  std::vector<ProblemEntry> problem_entries;  // for sweep.json
+  std::vector<size_t> shard_runs;  // indices of this shard's runs, in order
 
   for (const PlannedRun& run : plan.runs) {
     if (int(run.index % size_t(options.shard_count)) != options.shard_index) continue;
+    const std::string stem = file_stem(run.run_id);
+    shard_runs.push_back(run.index);
+    run_ids.push_back(run.run_id);
+    ++report.runs_done;
+
+    // Done in an interrupted attempt of this very sweep: keep it.
+    if (resume)
+      if (std::optional<Json> done = completed_run(out, run, stem)) {
+        ++report.runs_resumed;
+        const Json& result = (*done)["run"];
+        if (result.contains("exit_code"))
+          report.failures.push_back({run.index, run.run_id,
+                                     ExitCode(result.value("exit_code", int(ExitCode::kNumerical))),
+                                     result.value("error", std::string())});
+        if (!problem_entries.count(run.problem))
+          problem_entries[run.problem] =
+              problem_entry_from(run.problem, plan.problems[run.problem], *done);
+        log::info("[" + std::to_string(run.index + 1) + "/" + std::to_string(plan.runs.size()) +
+                  "] " + run.run_id + ": already complete (runs/" + stem + ".run.json), skipped");
+        continue;
+      }
+
     if (run.problem != problem_index) {
       problem.reset();
       images.reset();
@@ -228,7 +347,8 @@ SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
       }
       if (!problem_error.empty())
         log::info("cannot prepare " + planned.label + ": " + problem_error);
-      problem_entries.push_back(problem_entry(run.problem, planned, problem.get(), problem_error));
+      problem_entries[run.problem] =
+          problem_entry(run.problem, planned, problem.get(), problem_error);
     }
     log::info("[" + std::to_string(run.index + 1) + "/" + std::to_string(plan.runs.size()) + "] " +
               run.run_id);
@@ -245,29 +365,46 @@ SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
       inputs.elements = problem->mesh.size();
       inputs.channels = problem->system->channels();
     }
-    const std::string stem = file_stem(run.run_id);
-    run_ids.push_back(run.run_id);
-    ++report.runs_done;
 
-    // Everything from here may fail; a failure is recorded and the sweep goes on.
+    // This run's rows wait in the partial folder (short names, by index) until the sweep ends.
+    // The summary row is written last: a run whose summary rows are in place is complete.
+    TraceWriter trace(partial_file(out, run.index, "trace").string());
+    const std::string summary_path = partial_file(out, run.index, "summary").string();
+
+    // Everything from here may fail; a failure is recorded and the sweep goes on. Its run.json
+    // is written when its name can be (a run id too long for a file name has none).
+    bool trace_closed = false;
     auto record_failure = [&](ExitCode code, const std::string& message,
                               const std::map<std::string, std::string>* options_given) {
       log::info(run.run_id + ": failed: " + message);
       report.failures.push_back({run.index, run.run_id, code, message});
+      if (!trace_closed) trace.close();
+      try {
+        JsonWriter json;
+        begin_run_json(json, spec, run, problem.get(), options_given);
+        json.key("run").begin_object();
+        json.field("budget", spec.budget.describe());
+        json.field("stop_reason", failure_stop_reason(code));
+        json.field("error", message);
+        json.field("exit_code", int(code));
+        json.end_object();
+        json.end_object();
+        json.save((out / "runs" / (stem + ".run.json")).string());
+      } catch (const InputError& e) {
+        log::warning(run.run_id + ": " + e.what());
+      }
+      CsvWriter summary(summary_path, summary_columns());
       write_failed_summary_row(summary, inputs, failure_stop_reason(code), message);
-      summary.flush();
-      trace.flush();
-      JsonWriter json;
-      begin_run_json(json, spec, run, problem.get(), options_given);
-      json.key("run").begin_object();
-      json.field("budget", spec.budget.describe());
-      json.field("stop_reason", failure_stop_reason(code));
-      json.field("error", message);
-      json.field("exit_code", int(code));
-      json.end_object();
-      json.end_object();
-      json.save((out / "runs" / (stem + ".run.json")).string());
+      summary.close();
     };
+    if (stem.size() + kLongestSuffix > kMaxFileName) {
+      record_failure(ExitCode::kInvalidInput,
+                     "run id too long for a file name (" + std::to_string(stem.size()) +
+                         " bytes; the file system allows " + std::to_string(kMaxFileName) +
+                         " with the longest suffix radlab adds)",
+                     nullptr);
+      continue;
+    }
     if (!problem) {
       record_failure(problem_code, problem_error, nullptr);
       continue;
@@ -300,6 +437,15 @@ SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
         }
       };
       result = run_solver(*solver, *problem, spec.budget, schedule, inputs.labels, &trace, hook);
+      write_radiosity_csv((out / "runs" / (stem + ".radiosity.csv")).string(), problem->mesh,
+                          solver->solution());
+      trace_closed = true;  // a failure to close is a failure of the run, not closed again
+      trace.close();
+      JsonWriter json;
+      begin_run_json(json, spec, run, problem.get(), &bag->values());
+      write_run_result(json, spec.budget, result);
+      json.end_object();
+      json.save((out / "runs" / (stem + ".run.json")).string());
     } catch (const Error& e) {
       record_failure(e.code(), e.what(), bag ? &bag->values() : nullptr);
       continue;
@@ -308,44 +454,27 @@ SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
                      bag ? &bag->values() : nullptr);
       continue;
     }
-
+    CsvWriter summary(summary_path, summary_columns());
     write_summary_row(summary, inputs, result);
-    summary.flush();
+    summary.close();
+  }
 
-    JsonWriter json;
-    begin_run_json(json, spec, run, problem.get(), &bag->values());
-    write_run_result(json, spec.budget, result);
-    json.end_object();
-    json.save((out / "runs" / (stem + ".run.json")).string());
-    write_radiosity_csv((out / "runs" / (stem + ".radiosity.csv")).string(), problem->mesh,
-                        solver->solution());
+  // Every run is done: trace.csv and summary.csv from the runs' rows in run order, then
+  // sweep.json says "complete", then the partial rows go.
+  OutputFile trace_csv((out / "trace.csv").string());
+  OutputFile summary_csv((out / "summary.csv").string());
+  trace_csv.write(text::join(trace_columns(), ",") + "\n");
+  summary_csv.write(text::join(summary_columns(), ",") + "\n");
+  for (size_t index : shard_runs) {
+    append_rows(trace_csv, partial_file(out, index, "trace"));
+    append_rows(summary_csv, partial_file(out, index, "summary"));
   }
-  JsonWriter sweep;
-  sweep.begin_object();
-  sweep.field("experiment", spec.path);
-  sweep.field("name", spec.name);
-  sweep.field("description", spec.description);
-  sweep.field("command", options.command);
-  sweep.field("shard",
-              std::to_string(options.shard_index) + "/" + std::to_string(options.shard_count));
-  sweep.field("runs_total", plan.runs.size());
-  sweep.field("runs", run_ids);
-  sweep.key("failed").begin_array();
-  for (const RunFailure& f : report.failures) {
-    sweep.begin_object();
-    sweep.field("run_index", f.run_index);
-    sweep.field("run_id", f.run_id);
-    sweep.field("exit_code", int(f.code));
-    sweep.field("error", f.message);
-    sweep.end_object();
-  }
-  sweep.end_array();
-  sweep.key("problems").begin_array();
-  for (const ProblemEntry& e : problem_entries) write_problem_entry(sweep, e);
-  sweep.end_array();
-  write_build_info(sweep);
-  sweep.end_object();
-  sweep.save((out / "sweep.json").string());
+  trace_csv.commit();
+  summary_csv.commit();
+  write_sweep_json(out, spec, options, identity, plan.runs.size(), "complete", run_ids,
+                   report.failures, problem_entries);
+  std::error_code ignored;
+  fs::remove_all(partial_folder(out), ignored);
   return report;
 }
 

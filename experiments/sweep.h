@@ -1,6 +1,8 @@
 // Runs an experiment: the Cartesian product of its runs (or one shard of it), sharing each
 // scene's form factors and reference among the runs on it, and writes trace.csv, summary.csv,
-// runs/*.run.json, images/, coverage/ and sweep.json into the output folder.
+// runs/*.run.json, images/, coverage/ and sweep.json into the output folder. sweep.json says
+// "running" from the start and "complete" at the end; trace.csv and summary.csv appear only when
+// every run is done (experiments/sweep_folder.h: the lock, resuming, replacing, refusing).
 //
 // A run that fails (a UsageError, InputError or NumericalError from preparing its problem,
 // creating its solver, or a step) does not stop the sweep: its summary row says why
@@ -21,6 +23,9 @@ struct SweepOptions {
   int shard_index = 0;  // run the runs with index % shard_count == shard_index
   int shard_count = 1;
   std::string command;  // for sweep.json
+  // Replace the sweep files of a folder that holds another experiment's sweep, another shard,
+  // or no sweep (experiments/sweep_folder.h); without it such a folder is refused.
+  bool overwrite = false;
 };
 
 struct RunFailure {
@@ -33,6 +38,7 @@ struct RunFailure {
 struct SweepReport {
   size_t runs_done = 0;  // runs attempted in this shard, failed ones included
   size_t runs_total = 0;
+  size_t runs_resumed = 0;  // of runs_done: complete from an interrupted attempt, skipped
   std::vector<RunFailure> failures;
 
   // 0 if every run succeeded; else 4 if any failed numerically, else the worst of the input (3)

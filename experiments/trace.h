@@ -36,6 +36,8 @@ class TraceWriter {
   explicit TraceWriter(const std::string& path);
   void write(const TraceRow& row);
   void flush() { csv_.flush(); }
+  // Closes, checks and renames the file into place (core/csv.h); throws InputError on failure.
+  void close() { csv_.close(); }
 
  private:
   CsvWriter csv_;

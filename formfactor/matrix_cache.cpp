@@ -2,7 +2,6 @@
 
 #include <unistd.h>
 
-#include <atomic>
 #include <chrono>
 #include <cstddef>
 #include <cstdio>
@@ -11,6 +10,7 @@
 #include <memory>
 
 #include "core/log.h"
+#include "core/output_file.h"
 #include "core/random.h"
 
 namespace radlab {
@@ -209,34 +209,27 @@ bool MatrixCache::store(const MatrixCacheKey& key, const FormFactorMatrix& matri
   h.build_threads = report.threads;
   h.header_checksum = header_checksum(h, key.text);
 
-  // A name no other writer (process or thread) uses; renamed into place once complete.
-  static std::atomic<uint64_t> counter{0};
+  remove_stale_temporaries(folder_);
   const std::filesystem::path final_path = path(key);
-  const std::filesystem::path temp =
-      final_path.string() + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(++counter);
-  bool ok = false;
-  {
-    File f(std::fopen(temp.c_str(), "wb"));
-    if (f) {
-      ok = std::fwrite(&h, sizeof h, 1, f.get()) == 1 &&
-           std::fwrite(key.text.data(), 1, key.text.size(), f.get()) == key.text.size() &&
-           std::fwrite(matrix.data(), 1, matrix.bytes(), f.get()) == matrix.bytes();
-      ok = std::fflush(f.get()) == 0 && ok;
-      ok = std::fclose(f.release()) == 0 && ok;
-    }
+  try {
+    OutputFile out(final_path.string(), /*binary=*/true, /*sync=*/true);
+    out.write({reinterpret_cast<const char*>(&h), sizeof h});
+    out.write(key.text);
+    out.write({reinterpret_cast<const char*>(matrix.data()), matrix.bytes()});
+    out.commit();
+  } catch (const std::exception& e) {
+    log::warning(std::string("form-factor cache: ") + e.what() + "; the matrix is not cached");
+    return false;
   }
-  if (ok) {
-    std::filesystem::rename(temp, final_path, ec);
-    ok = !ec;
-  }
-  if (!ok) {
-    log::warning("form-factor cache: cannot write " + final_path.string() +
-                 (ec ? " (" + ec.message() + ")" : std::string(" (write failed)")) +
-                 "; the matrix is not cached");
-    std::error_code ignored;
-    std::filesystem::remove(temp, ignored);
-  }
-  return ok;
+  return true;
+}
+
+std::unique_ptr<FileLock> MatrixCache::lock(const MatrixCacheKey& key) const {
+  std::error_code ec;
+  std::filesystem::create_directories(folder_, ec);
+  std::filesystem::path file = path(key);
+  file.replace_extension(".lock");
+  return FileLock::acquire(file.string(), "the same form-factor matrix (" + file.string() + ")");
 }
 
 }  // namespace radlab

@@ -13,8 +13,12 @@
 //   key text, then the payload: n*n floats or doubles, row-major, native byte order.
 // A file that is truncated, has the wrong size, a different version or byte order, a different
 // key, or a checksum mismatch is reported (log::warning), deleted and rebuilt; it is never
-// trusted. Files are written to a temporary name in the same folder and renamed into place, so
-// readers see either the old file, the new one, or none; concurrent writers are harmless.
+// trusted. Files are written to a temporary name in the same folder, synced to disk and renamed
+// into place, so readers see either the old file, the new one, or none. A per-key lock file
+// (`<32 hex digits>.lock`, flock) lets concurrent processes build one matrix once: the first
+// builds, the others wait, then load it. Temporaries left by a killed writer
+// (`*.tmp.<pid>.<n>`) are removed by later stores once their process is gone and they are over
+// a minute old, or once they are a day old (core/output_file.h).
 //
 // Folder: `$RADLAB_CACHE_DIR` if set, else `$XDG_CACHE_HOME/radlab`, else `~/.cache/radlab`.
 // Nothing evicts old files: delete the folder to reclaim the space.
@@ -26,6 +30,7 @@
 #include <optional>
 #include <string>
 
+#include "core/file_lock.h"
 #include "formfactor/matrix.h"
 
 namespace radlab {
@@ -65,7 +70,13 @@ class MatrixCache {
   // deleted, and nullopt returned.
   std::optional<FormFactorMatrix> load(const MatrixCacheKey& key, BuildReport* report) const;
 
-  // Stores atomically. Failures (unwritable folder, full disk) are warnings; returns success.
+  // Blocks while another process holds the lock of `key`, then holds it: take it after a miss,
+  // load again (the other process may have stored it meanwhile), build, store, release.
+  // nullptr when the folder cannot hold a lock file (then nothing is locked).
+  std::unique_ptr<FileLock> lock(const MatrixCacheKey& key) const;
+
+  // Stores atomically (temporary, fsync, rename), first removing stale temporaries. Failures
+  // (unwritable folder, full disk) are warnings; returns success.
   bool store(const MatrixCacheKey& key, const FormFactorMatrix& matrix,
              const BuildReport& report) const;
 

@@ -6,13 +6,12 @@ Usage: contact_sheet.py OUT_DIR [--kind display|cohen|perror|both] [--out FILE]
 
 Reads OUT_DIR/images/<run>_step<NNNNNN>.png (and _cohen.png / _perror.png) as written by
 `radlab run` with an [images] table, and writes OUT_DIR/plots/contact_sheet.png by default.
-Rows follow the sweep's run order (sweep.json, else summary.csv) and are labelled with the full
-run id, parameters included.
+Rows follow the sweep's run order (sweep.json) and are labelled with the full run id, parameters
+included. Only the runs sweep.json lists are shown (images of other runs in the folder are
+ignored), and a sweep that is not complete is refused (sweep_runs.py).
 """
 import argparse
-import csv
 import glob
-import json
 import os
 import re
 import sys
@@ -22,6 +21,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.image as mpimg  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
+from sweep_runs import listed_runs  # noqa: E402
 
 PATTERN = re.compile(r"^(?P<run>.+)_step(?P<step>\d{6})\.png$")
 
@@ -29,22 +29,6 @@ PATTERN = re.compile(r"^(?P<run>.+)_step(?P<step>\d{6})\.png$")
 def file_stem(run_id):
     """The file name radlab gives a run's files (experiments/sweep.cpp: file_stem)."""
     return re.sub(r"[/: ,=]", "_", run_id)
-
-
-def run_ids_in_order(out_dir):
-    """The sweep's run ids in run order: sweep.json's runs, else summary.csv by run_index."""
-    path = os.path.join(out_dir, "sweep.json")
-    if os.path.exists(path):
-        with open(path) as f:
-            runs = json.load(f).get("runs", [])
-        if runs:
-            return runs
-    path = os.path.join(out_dir, "summary.csv")
-    if os.path.exists(path):
-        with open(path, newline="") as f:
-            rows = sorted(csv.DictReader(f), key=lambda r: int(r["run_index"]))
-        return [r["run_id"] for r in rows]
-    return []
 
 
 def wrapped(run_id, width=28):
@@ -66,21 +50,24 @@ def main(argv):
     parser.add_argument("--kind", default="both", choices=["display", "cohen", "perror", "both"])
     parser.add_argument("--out")
     args = parser.parse_args(argv)
+    _, run_ids = listed_runs(args.out_dir, "contact_sheet")
     images = os.path.join(args.out_dir, "images")
     runs = {}
     for path in sorted(glob.glob(os.path.join(images, "*_step*.png"))):
         match = PATTERN.match(os.path.basename(path))
         if match:  # the display image; error maps share its stem
             runs.setdefault(match["run"], {})[int(match["step"])] = path[: -len(".png")]
-    if not runs:
-        sys.exit(f"contact_sheet: no checkpoint images in {images}")
-    # Sweep order, labelled by run id; image stems no run id explains keep their stem, at the end.
+    # Sweep order, labelled by run id; images of runs the sweep does not list are left out.
     ordered = []
-    for run_id in run_ids_in_order(args.out_dir):
+    for run_id in run_ids:
         stem = file_stem(run_id)
         if stem in runs:
             ordered.append((run_id, runs.pop(stem)))
-    ordered += sorted(runs.items())
+    if runs:
+        print(f"contact_sheet: ignored images of {len(runs)} runs sweep.json does not list",
+              file=sys.stderr)
+    if not ordered:
+        sys.exit(f"contact_sheet: no checkpoint images of the sweep's runs in {images}")
     steps = sorted({s for _, by_step in ordered for s in by_step})
     kinds = {"display": [""], "cohen": ["_cohen"], "perror": ["_perror"], "both": ["", "_cohen"]}[
         args.kind]

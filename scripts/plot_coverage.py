@@ -6,14 +6,14 @@ Usage: plot_coverage.py OUT_DIR [--formats png,pdf] [--out FOLDER]
 --out FOLDER writes the figures there instead of OUT_DIR/plots (e.g. docs/figures/NAME).
 
 Reads OUT_DIR/coverage/<run>_step<NNNNNN>.csv (written by `radlab run` with a [coverage] table,
-for solvers that track coverage) and writes OUT_DIR/plots/<run>_coverage.{png,pdf}: one panel per
+for solvers that track coverage; only of the runs sweep.json lists, and only of a complete sweep,
+see sweep_runs.py) and writes OUT_DIR/plots/<run>_coverage.{png,pdf}: one panel per
 step, elements sorted by their summed form factor dff from this session's shooters (the paper's
 f(a)), p-error of each element against it. Elements that shot in the session are left out (their
 dff is not meaningful), as in the paper's gathering criterion.
 """
 import argparse
 import glob
-import json
 import os
 import re
 import sys
@@ -23,6 +23,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
+from sweep_runs import listed_runs  # noqa: E402
 
 PATTERN = re.compile(r"^(?P<run>.+)_step(?P<step>\d{6})\.csv$")
 
@@ -34,20 +35,17 @@ def main(argv):
     parser.add_argument("--out", help="folder for the figures (default OUT_DIR/plots)")
     args = parser.parse_args(argv)
     formats = [f for f in args.formats.split(",") if f]
+    _, listed = listed_runs(args.out_dir, "plot_coverage")
+    run_ids = {re.sub(r"[/: ,=]", "_", r): r for r in listed}  # file stem -> run id
     runs = {}
     for path in sorted(glob.glob(os.path.join(args.out_dir, "coverage", "*_step*.csv"))):
         match = PATTERN.match(os.path.basename(path))
-        if match:
+        if match and match["run"] in run_ids:
             runs.setdefault(match["run"], []).append((int(match["step"]), path))
     if not runs:
         sys.exit(f"plot_coverage: no coverage files in {args.out_dir}/coverage")
     plots = args.out or os.path.join(args.out_dir, "plots")
     os.makedirs(plots, exist_ok=True)
-    run_ids = {}  # file stem -> run id, from sweep.json
-    sweep_path = os.path.join(args.out_dir, "sweep.json")
-    if os.path.exists(sweep_path):
-        with open(sweep_path) as f:
-            run_ids = {re.sub(r"[/: ,=]", "_", r): r for r in json.load(f).get("runs", [])}
     for run, files in runs.items():
         files.sort()
         fig, axes = plt.subplots(1, len(files), figsize=(4.2 * len(files), 3.8), squeeze=False)

@@ -5,8 +5,9 @@ Usage: plot_traces.py OUT_DIR [--formats png,pdf] [--out FOLDER]
 
 --out FOLDER writes the figures there instead of OUT_DIR/plots (e.g. docs/figures/NAME).
 
-Reads OUT_DIR/trace.csv, sweep.json (the experiment's name) and runs/*.run.json (each run's
-scene, mesh and form factors) and writes into OUT_DIR/plots/, per scene and mesh:
+Reads OUT_DIR/trace.csv, sweep.json (the experiment's name, and the runs to plot: only those it
+lists; a sweep that is not complete is refused, see sweep_runs.py) and runs/*.run.json (each
+run's scene, mesh and form factors) and writes into OUT_DIR/plots/, per scene and mesh:
   <scene>_rms_rel_vs_rows, <scene>_rms_rel_vs_seconds, <scene>_p_mean_vs_rows,
   <scene>_p_mean_vs_seconds   one line per run, log y; solid = solution(), dashed = display()
                               when it differs (e.g. Cohen's ambient term);
@@ -28,6 +29,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
+from sweep_runs import listed_runs  # noqa: E402
 
 
 def file_stem(run_id):
@@ -140,19 +142,15 @@ def main(argv):
     parser.add_argument("--out", help="folder for the figures (default OUT_DIR/plots)")
     args = parser.parse_args(argv)
     formats = [f for f in args.formats.split(",") if f]
+    sweep, run_ids = listed_runs(args.out_dir, "plot_traces")
     trace_path = os.path.join(args.out_dir, "trace.csv")
     if not os.path.exists(trace_path):
         sys.exit(f"plot_traces: {trace_path}: no such file")
     trace = pd.read_csv(trace_path)
+    trace = trace[trace["run_id"].isin(run_ids)]
     if trace.empty:
-        sys.exit(f"plot_traces: {trace_path}: no rows")
-    name = os.path.basename(os.path.normpath(args.out_dir))
-    sweep = {}
-    sweep_path = os.path.join(args.out_dir, "sweep.json")
-    if os.path.exists(sweep_path):
-        with open(sweep_path) as f:
-            sweep = json.load(f)
-        name = sweep.get("name", name)
+        sys.exit(f"plot_traces: {trace_path}: no rows of the runs sweep.json lists")
+    name = sweep.get("name", os.path.basename(os.path.normpath(args.out_dir)))
     plots = args.out or os.path.join(args.out_dir, "plots")
     os.makedirs(plots, exist_ok=True)
     written = []

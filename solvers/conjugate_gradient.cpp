@@ -7,6 +7,11 @@
 //   channel are eliminated there (B_i = E_i is known; their coupling moves into b). CG starts
 //   from B = E and minimises the M-norm of the error over growing Krylov spaces, so that norm
 //   never increases; solution() is the current iterate. Preconditioner: Jacobi (diag M) or none.
+//   Stop: a channel is converged when its recursive residual is at the rounding level of
+//   evaluating M B in double, |r_i| <= 4u (|b_i| + sum_j |M_ij| ||B||_inf) for every element
+//   (componentwise, so a tiny element's row counts), and the solver reports finished when all
+//   are. A breakdown (p^T M p <= 0) with the residual within 1e3 of that level is rounding noise
+//   after convergence and counts as converged; anywhere else it is a NumericalError.
 //   Reciprocity: by default init() checks it on the dense matrix and refuses (UsageError) a
 //   matrix whose relative defect |A_i F_ij - A_j F_ji| / max(A_i F_ij, A_j F_ji) exceeds
 //   reciprocity_tolerance: on a non-symmetric M, CG has no convergence guarantee. With
@@ -25,7 +30,9 @@
 //   some channel (black elements are eliminated), plus O(n) vector work. init() costs the same
 //   rows once more (the initial residual), and with the check an O(n^2) pass over the matrix.
 // Left out: restarts and residual replacement (the recursive residual is used throughout).
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "core/error.h"
@@ -87,8 +94,13 @@ class ConjugateGradientSolver final : public Solver {
     // Initial residual b - M E = (A F E)_i (or (S E)_i symmetrised) on the free entries: the
     // coupling to eliminated elements and M's diagonal cancel against b. One pass over the rows
     // (symmetrised: all rows, since eliminated elements couple through the transpose too).
-    std::vector<double> self(n, 0.0);
-    auto rows = [&](size_t i, const auto* F) { self[i] = double(F[i]); };
+    std::vector<double> self(n, 0.0), row_sum(n, 0.0);
+    auto rows = [&](size_t i, const auto* F) {
+      self[i] = double(F[i]);
+      double sum = 0.0;
+      for (size_t j = 0; j < n; ++j) sum += double(F[j]);
+      row_sum[i] = sum;
+    };
     multiply(B_, r_, options_.symmetrise, /*all_rows=*/options_.symmetrise, rows);
     for (int c = 0; c < channels; ++c)
       for (size_t i = 0; i < n; ++i) {
@@ -99,6 +111,18 @@ class ConjugateGradientSolver final : public Solver {
         } else {
           r_.at(c, i) = 0.0;
         }
+      }
+    // The rounding level of the residual, per element and channel: row i of M has absolute sum
+    // A_i (1/rho_i + sum_j F_ij) and b_i = A_i E_i / rho_i. A residual with
+    // |r_i| <= 4u (|b_i| + row_i ||B||_inf) everywhere is as small as evaluating M B in double
+    // can tell apart from zero; iterating further only follows rounding noise (and, left
+    // running, drifts or breaks down with p^T M p = 0). Per element, not in norm: a 1e-6 m^2
+    // element's row is 1e6 times smaller than its neighbours'.
+    row_scale_ = Radiosity(channels, n);
+    for (int c = 0; c < channels; ++c)
+      for (size_t i = 0; i < n; ++i) {
+        const double rc = rho.at(c, i);
+        if (rc > 0.0) row_scale_.at(c, i) = system.area()[i] * (1.0 / rc + row_sum[i]);
       }
     converged_.assign(size_t(channels), false);
     rz_.assign(size_t(channels), 0.0);
@@ -135,6 +159,11 @@ class ConjugateGradientSolver final : public Solver {
         q_.at(c, i) = area[i] / rc * p_.at(c, i) - q_.at(c, i);
         pq += p_.at(c, i) * q_.at(c, i);
       }
+      if (!(pq > 0.0) && at_rounding_level(c, 1e3)) {
+        // Breakdown after convergence: p is rounding noise, B is already the solution.
+        converged_[k] = true;
+        continue;
+      }
       if (!(pq > 0.0))
         throw NumericalError(
             "conjugate-gradient: p^T M p = " + std::to_string(pq) + " <= 0 in channel " +
@@ -154,9 +183,11 @@ class ConjugateGradientSolver final : public Solver {
       for (size_t i = 0; i < n; ++i)
         if (rho.at(c, i) > 0.0) p_.at(c, i) = z_.at(c, i) + beta * p_.at(c, i);
       rz_[k] = rz;
-      converged_[k] = rz == 0.0;  // the recursive residual vanished: nothing left to do
+      // Converged: the recursive residual vanished, or reached the rounding level.
+      converged_[k] = rz == 0.0 || at_rounding_level(c, 1.0);
       finished &= converged_[k];
     }
+    for (bool c : converged_) finished &= c;
     return {.finished = finished};
   }
 
@@ -197,6 +228,23 @@ class ConjugateGradientSolver final : public Solver {
     }
     for (int c = 0; c < channels; ++c)
       for (size_t i = 0; i < v.size(); ++i) out.at(c, i) = 0.5 * (out.at(c, i) + scatter_.at(c, i));
+  }
+
+  // |r_i| <= factor * 4u (|b_i| + row_i ||B||_inf) for every free element of channel c.
+  bool at_rounding_level(int c, double factor) const {
+    const double u = std::numeric_limits<double>::epsilon() / 2;
+    const Radiosity& rho = system_->reflectance();
+    double B_norm = 0.0;
+    for (size_t i : active_)
+      if (rho.at(c, i) > 0.0) B_norm = std::max(B_norm, std::abs(B_.at(c, i)));
+    for (size_t i : active_) {
+      const double rc = rho.at(c, i);
+      if (!(rc > 0.0)) continue;
+      const double b = system_->area()[i] * std::abs(system_->emission().at(c, i)) / rc;
+      if (std::abs(r_.at(c, i)) > factor * 4.0 * u * (b + row_scale_.at(c, i) * B_norm))
+        return false;
+    }
+    return true;
   }
 
   void check_reciprocity() const {
@@ -243,6 +291,7 @@ class ConjugateGradientSolver final : public Solver {
   const System* system_ = nullptr;
   std::vector<size_t> active_;  // elements with rho > 0 in some channel: their rows are read
   Radiosity B_, r_, z_, p_, q_, diagonal_, scatter_;
+  Radiosity row_scale_;  // A_i (1/rho_i + sum_j F_ij): row i's absolute sum in M
   std::vector<double> rz_;
   std::vector<bool> converged_;
 };

@@ -395,7 +395,7 @@ std::string Reference::summary() const {
                 "||(I-J)^-1||_inf <= %.6g, q = %.9g; %s, %d refinements, %.2f s",
                 bound_inf, bound_relative, residual_inf, inverse_norm_bound, q, method.c_str(),
                 refinements, seconds);
-  return buffer;
+  return system.empty() ? std::string(buffer) : std::string(buffer) + "; system: " + system;
 }
 
 }  // namespace radlab

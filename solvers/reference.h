@@ -50,6 +50,9 @@ struct Reference {
   // file's certificate holds), or the name of an uncertified stand-in for scenes too large for
   // the certified solve (never presented as certified).
   std::string kind = "certified";
+  // Which system the certificate is of, in words (printed with it; set by prepare_problem):
+  // e.g. the method's F in double precision, symmetrised or not. Empty: the matrix given.
+  std::string system;
   int refinements = 0;
   double seconds = 0.0;
 

@@ -223,12 +223,12 @@ TEST(Sweep, ShardsMergeToTheUnsplitResult) {
   EXPECT_NE(merged_json.find("\"command\": \"radlab merge\""), std::string::npos);
   EXPECT_NE(merged_json.find("\"merged_from\""), std::string::npos);
   EXPECT_NE(merged_json.find("\"shard\": \"0/1\""), std::string::npos);
-  // A run in two shards is refused.
+  // A run in two shards (here a whole sweep and one of its shards) is refused.
   expect_error<InputError>(
       [&] {
         merge_sweeps({dir.file("s0"), dir.file("whole")}, dir.file("bad"));
       },
-      {"is in"});
+      {"1-way split", "2-way split"});
 }
 
 TEST(Sweep, PlotScriptRunsOnATrace) {
