@@ -23,6 +23,9 @@ table rather than passed on:
   marked with a caveat;
 - a run that succeeds on a matrix whose rows sum above 1 + 1e-3 (light created: overlapping or
   near-touching input) is marked with a caveat: its certificate is true of an unphysical system;
+- with a form-factor method other than raycast, each answer's mean |p| against the raycast
+  solution of the same mesh (an independent method) must stay below 0.5: a room left black by
+  form factors that miss a small lamp is a false "converged";
 - positivity: min B >= 0 is required of the methods that add only non-negative amounts (Jacobi,
   Gauss-Seidel, shooting, sorted shooting, interleaving); the others' min B is shown.
 
@@ -41,7 +44,8 @@ import sys
 import tomllib
 
 MONOTONE = {"jacobi", "gauss-seidel", "shooting", "sorted-shooting", "interleaved"}
-EXPERIMENTS = ["experiments/stability.toml", "experiments/stability_float.toml"]
+EXPERIMENTS = ["experiments/stability.toml", "experiments/stability_float.toml",
+               "experiments/stability_hemicube.toml"]
 
 
 def run(cmd, timeout):
@@ -71,6 +75,17 @@ def rel_inf(b, ref):
         for u, v in zip(x, y):
             worst = max(worst, abs(u - v))
     return worst / top if top > 0 else (0.0 if worst == 0 else math.inf)
+
+
+def mean_p(b, ref):
+    """Area-weighted mean |B - B*| / B* over elements and channels (B* > 0 only)."""
+    total, weight = 0.0, 0.0
+    for (area, x), (_, y) in zip(b, ref):
+        for u, v in zip(x, y):
+            if v > 0:
+                total += area * abs(u - v) / v
+                weight += area
+    return total / weight if weight > 0 else 0.0
 
 
 def num(s):
@@ -133,6 +148,12 @@ def evaluate(args, path):
             refs[(spec, precision)] = read_b(ref_path) if c == 0 else None
             if c != 0:
                 refs[(spec, precision, "error")] = out.strip().splitlines()[-1] if out else ""
+        if ff["method"] != "raycast":
+            # An independent method on the same mesh: the raycast solution.
+            ref_path = os.path.join(work, f"ref_raycast_{len(refs)}.csv")
+            c, out = run([args.radlab, "reference", spec, "--subdiv", str(subdiv), "--ff",
+                          "raycast", "--precision", "double", "--out", ref_path], args.timeout)
+            refs[(spec, "raycast")] = read_b(ref_path) if c == 0 else None
 
     cells = []
     for row in summary:
@@ -171,6 +192,19 @@ def evaluate(args, path):
                 cell["err_float"] = rel_inf(b, ref_f)
             if ref_d:
                 cell["err_double"] = rel_inf(b, ref_d)
+            ref_r = refs.get((spec, "raycast"))
+            if ref_r and not error:
+                # Wu & Wang's mean |p| against the raycast solution of the same mesh, an
+                # independent form-factor method: two methods agree to a few per cent; an answer
+                # off by half or more missed the light, whatever its certificate says. (p is
+                # relative per element, so the bright emitters, right from step 0, weigh little.)
+                cell["cross"] = mean_p(b, ref_r)
+                if cell["cross"] > 0.5:
+                    cell["false"].append(
+                        f"mean |p| {cell['cross']:.2f} against the raycast solution: the form "
+                        "factors missed the light, yet the run was certified")
+                else:
+                    cell["checks"].append(f"mean |p| {cell['cross']:.3f} against raycast")
         bound = num(row["bound_relative"])
         reached = stop == "tolerance reached" or row.get("tolerance_reached") == "true"
         cell["reached"] = reached
