@@ -316,7 +316,9 @@ def write(args, results):
       "The cases are described in [scenes.md](scenes.md#stability-scenes). The first table "
       "stores F in double, so every solver can reach the tolerance; the second stores it in "
       "float, as radlab's default does, and the certified reference is of the double-precision "
-      "F: the float rounding is a floor the solvers must stop at and say so. Each case also "
+      "F: the float rounding is a floor the solvers must stop at and say so; the third computes "
+      "hemicube form factors on the fly for the tiny light, and checks each answer against the "
+      "raycast solution of the same mesh. Each case also "
       "shows the distance of each final answer from the reference solved on the "
       "double-precision matrix (`radlab reference --precision double`).")
     w("")
