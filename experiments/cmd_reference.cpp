@@ -2,6 +2,7 @@
 #include <cstdio>
 
 #include "core/log.h"
+#include "core/output_file.h"
 #include "experiments/cli_common.h"
 #include "experiments/outputs.h"
 
@@ -16,6 +17,7 @@ void add_reference_command(CLI::App& app) {
   add_form_factor_options(*command, *ff, false);
   command->add_option("--out", *out, "CSV element,area,B_r,B_g,B_b");
   command->callback([scene, ff, out]() {
+    if (!out->empty()) check_writable(*out);  // before the computation, not after it
     auto problem = prepare_problem(make_spec(*scene, *ff));
     const Reference& r = *problem->reference;
     std::printf("reference    %s\n", r.summary().c_str());

@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
   radlab::cli::add_solve_command(app, argc, argv);
   radlab::cli::add_run_command(app, argc, argv);
   radlab::cli::add_merge_command(app);
+  radlab::cli::add_prepare_command(app);
   app.parse_complete_callback([&]() { radlab::log::set_quiet(quiet); });
   try {
     app.parse(argc, argv);

@@ -67,6 +67,7 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
     // The cache holds the method's matrix in double; float storage is its rounding, made below.
     key = matrix_cache_key(problem->mesh, problem->method->name(), problem->method->parameters(),
                            Precision::kDouble);
+    problem->matrix_cache_file = cache->path(key).string();
   }
   if (spec.row_mode == RowMode::kCached || spec.need_reference) {
     std::optional<FormFactorMatrix> cached =
@@ -135,6 +136,7 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
     if (cache) {
       references.emplace(cache_dir);
       reference_key = reference_cache_key(key, symmetrise_ff, cached, {});
+      problem->reference_cache_file = references->path(reference_key).string();
       problem->reference = references->load(reference_key, cached, certified, {});
     }
     std::unique_ptr<FileLock> computing;  // as for the matrix: computed once, others wait

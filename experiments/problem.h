@@ -51,6 +51,8 @@ struct Problem {
   MatrixDiagnostics raw_diagnostics;  // of the matrix as the method computed it
   std::unique_ptr<System> system;     // rows from the matrix, or on the fly (RowMode)
   std::optional<Reference> reference;
+  // Where the cache holds (or would hold) the matrix and reference; empty without a cache.
+  std::string matrix_cache_file, reference_cache_file;
 
   const Scene& scene() const { return loaded.scene; }
   bool has_matrix() const { return matrix.size() > 0; }

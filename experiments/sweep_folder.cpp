@@ -163,7 +163,9 @@ bool prepare_sweep_folder(const fs::path& out, const SweepIdentity& identity, bo
 
   // The same experiment: resume a killed attempt of exactly this sweep, else replace it.
   std::string differs;
-  if (text_of(*old, "experiment_digest") != identity.experiment_digest)
+  if (!old->contains("experiment_digest"))
+    differs = "written by an older radlab";
+  else if (text_of(*old, "experiment_digest") != identity.experiment_digest)
     differs = "the experiment file changed";
   else if (text_of(*old, "plan_digest") != identity.plan_digest)
     differs = "the run plan changed";

@@ -376,9 +376,10 @@ TEST(ReliabilitySweep, ARerunOfAnEditedExperimentLeavesNoStaleRunsOrImages) {
   EXPECT_EQ(read_json_file(dir.file("out/sweep.json"))["status"], "complete");
 }
 
-// Six runs of ~0.4 s each (jacobi on a 216-element cube, 300k rows), so a kill lands mid-sweep.
+// Six runs of ~0.4 s each (jacobi on a 216-element cube, 300k rows), so a kill lands mid-sweep:
+// three on each of two problems (runs 0-2 on rho=0.9, 3-5 on rho=0.85).
 const char* kSixSlowRuns = R"(name = "slow"
-scenes = ["builtin:cube:rho=0.9"]
+scenes = ["builtin:cube:rho=0.9", "builtin:cube:rho=0.85"]
 subdiv = 6
 solvers = ["jacobi"]
 [form_factors]
@@ -386,7 +387,7 @@ rays = 4
 [budget]
 rows = 300000
 [parameters.jacobi]
-omega = [1.0, 0.9, 0.8, 0.7, 0.6, 0.5]
+omega = [1.0, 0.9, 0.8]
 )";
 
 TEST(ReliabilitySweep, AKilledSweepIsMarkedRunningAndResumes) {
@@ -410,8 +411,9 @@ TEST(ReliabilitySweep, AKilledSweepIsMarkedRunningAndResumes) {
     execl(RADLAB_BINARY, RADLAB_BINARY, "run", toml.c_str(), "--out", out.c_str(), nullptr);
     _exit(127);
   }
-  // Kill it once two runs are complete (their summary rows wait in the partial folder).
-  const std::string second_done = out + "/.radlab-partial/000001.summary.csv";
+  // Kill it once the first problem's three runs are complete (their summary rows wait in the
+  // partial folder), so the resumed sweep never prepares that problem again.
+  const std::string second_done = out + "/.radlab-partial/000002.summary.csv";
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
   while (!fs::exists(second_done) && std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
@@ -448,6 +450,14 @@ TEST(ReliabilitySweep, AKilledSweepIsMarkedRunningAndResumes) {
   EXPECT_EQ(a.rows, b.rows);
   EXPECT_EQ(read_csv(out + "/summary.csv").rows.size(), 6u);
   EXPECT_FALSE(fs::exists(out + "/.radlab-partial"));
+  // sweep.json too: the same runs, failures and problems (the first problem's entry is rebuilt
+  // from its runs' run.json).
+  EXPECT_NE(resumed.output.find("omega:0.80000000000000004: already complete"), std::string::npos)
+      << resumed.output;
+  const Json resumed_sweep = read_json_file(out + "/sweep.json");
+  const Json whole_sweep = read_json_file(dir.file("whole/sweep.json"));
+  for (const char* key : {"runs", "failed", "problems", "experiment_digest", "plan_digest"})
+    EXPECT_EQ(resumed_sweep[key], whole_sweep[key]) << key;
 }
 
 TEST(ReliabilitySweep, PlotScriptsShowOnlyTheRunsSweepJsonLists) {
