@@ -1,5 +1,6 @@
 // The radlab command line. Exit codes (DESIGN §7): 0 ok, 2 usage, 3 invalid input,
-// 4 numerical failure; errors are printed to stderr and name what is at fault.
+// 4 numerical failure, 5 tolerance not reached (`radlab solve --tol`, outputs written); errors are
+// printed to stderr and name what is at fault.
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <exception>

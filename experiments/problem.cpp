@@ -107,8 +107,10 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
     // Float storage: the solvers read the rounding of the double matrix, and the reference and
     // bounds stay on the double one (the system the method computed; docs/reference.md).
     if (precision == Precision::kFloat && spec.row_mode == RowMode::kCached) {
-      problem->computed = std::move(problem->matrix);
-      problem->matrix = round_to_float(problem->computed);
+      FormFactorMatrix rounded = round_to_float(problem->matrix);
+      // Without a reference nothing is certified: the double matrix is not kept.
+      if (spec.need_reference) problem->computed = std::move(problem->matrix);
+      problem->matrix = std::move(rounded);
     }
     if (symmetrise_ff || precision == Precision::kFloat) {
       problem->diagnostics = diagnose(problem->matrix, problem->mesh.area);

@@ -56,12 +56,13 @@ ReferenceCacheKey reference_cache_key(const MatrixCacheKey& matrix_key, bool sym
     materials = hash_bytes(rho.data(), rho.size_bytes(), materials);
     materials = hash_bytes(E.data(), E.size_bytes(), materials);
   }
-  char text[200];
+  char text[300];
   std::snprintf(text, sizeof text,
                 ";symmetrised=%d;channels=%d;materials=%016llx;target=%.17g;acceptable=%.17g;"
-                "refinements=%d;dense_limit=%zu",
+                "refinements=%d;dense_limit=%zu;gmres_tolerance=%.17g",
                 symmetrised ? 1 : 0, system.channels(), static_cast<unsigned long long>(materials),
-                options.target, options.acceptable, options.max_refinements, options.dense_limit);
+                options.target, options.acceptable, options.max_refinements, options.dense_limit,
+                options.gmres_tolerance);
   ReferenceCacheKey key;
   key.text =
       "reference=" + std::to_string(ReferenceCache::kFormatVersion) + ";" + matrix_key.text + text;

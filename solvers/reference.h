@@ -12,8 +12,11 @@
 //       s = 1 - (I - J) w. If w > 0 and ||s||_inf < 1, then J w < w, so rho(J) < 1, (I-J)^-1 >= 0
 //       and (I-J)^-1 1 <= w / (1 - ||s||). This also certifies scenes with q >= 1 (some element
 //       with rho = 1 in a closed scene) as long as the spectral radius is below 1.
-// Residuals include a bound on their own rounding error, so the certificate is rigorous for the
-// stored F (float or double), rho and E.
+// Residuals include a bound on their own rounding error (blocked summation), so the certificate
+// is rigorous for the F given, rho and E. prepare_problem() gives it the method's F in double
+// whatever the solvers' storage (docs/reference.md), and names that system in `system`.
+// Above dense_limit, GMRES solves each correction only to gmres_tolerance: refinement with
+// long-double residuals supplies the accuracy (a tighter inner tolerance stalls on rounding).
 //
 // A system with no finite solution (spectral radius of J >= 1, e.g. a closed scene with rho = 1
 // everywhere) is detected by Collatz–Wielandt bounds before any solve and reported as a
@@ -30,10 +33,12 @@
 namespace radlab {
 
 struct ReferenceOptions {
-  double target = 1e-12;      // stop refining once the bound is below target * max B
-  double acceptable = 1e-8;   // a bound above acceptable * max B is a failure
-  int max_refinements = 10;   // refinement steps per channel
-  size_t dense_limit = 9000;  // largest n for dense LU (n^2 doubles of memory, n^3/3 flops)
+  double target = 1e-12;           // stop refining once the bound is below target * max B
+  double acceptable = 1e-8;        // a bound above acceptable * max B is a failure
+  int max_refinements = 10;        // refinement steps per channel
+  size_t dense_limit = 9000;       // largest n for dense LU (n^2 doubles of memory, n^3/3 flops)
+  double gmres_tolerance = 1e-10;  // relative residual of each inner GMRES solve above
+                                   // dense_limit; refinement (long double) supplies the rest
 };
 
 struct Reference {
@@ -54,6 +59,7 @@ struct Reference {
   // e.g. the method's F in double precision, symmetrised or not. Empty: the matrix given.
   std::string system;
   int refinements = 0;
+  long long gmres_iterations = 0;  // matrix-vector products of all GMRES solves (0 with LU)
   double seconds = 0.0;
 
   std::string summary() const;

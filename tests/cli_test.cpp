@@ -41,7 +41,7 @@ Result radlab(const std::string& arguments) {
 
 TEST(Cli, HelpEverywhere) {
   for (const char* command :
-       {"", "scenes", "solvers", "formfactors", "reference", "solve", "run", "merge"}) {
+       {"", "scenes", "solvers", "formfactors", "reference", "solve", "run", "merge", "prepare"}) {
     Result r = radlab(std::string(command) + " --help");
     EXPECT_EQ(r.code, 0) << command << ": " << r.output;
     EXPECT_OUTPUT_HAS(r, "Usage");
