@@ -322,6 +322,17 @@ def write(args, results):
       "shows the distance of each final answer from the reference solved on the "
       "double-precision matrix (`radlab reference --precision double`).")
     w("")
+    try:
+        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], stdout=subprocess.PIPE,
+                                stderr=subprocess.DEVNULL, text=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
+                               stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                               text=True).stdout.strip()
+    except OSError:
+        commit, dirty = "", ""
+    if commit:
+        w(f"Made at commit `{commit}`{' (with local changes)' if dirty else ''}.")
+        w("")
     total = sum(len(cells) for _, cells, _ in results)
     nfalse = sum(1 for _, cells, _ in results for c in cells if c["false"])
     w(f"**{total} cells; {nfalse} with a false verdict** (marked **FALSE**).")
