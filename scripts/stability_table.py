@@ -328,6 +328,8 @@ def write(args, results):
         dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
                                stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
                                text=True).stdout.strip()
+        # The table itself may be the one changed file: that is not a change to what made it.
+        dirty = "\n".join(x for x in dirty.splitlines() if not x.endswith(args.out))
     except OSError:
         commit, dirty = "", ""
     if commit:
