@@ -10,6 +10,7 @@
 #include "experiments/cli_common.h"
 #include "experiments/outputs.h"
 #include "experiments/runner.h"
+#include "experiments/stand_in_reference.h"
 #include "formfactor/embree_scene.h"
 #include "render/exr_io.h"
 #include "render/png_io.h"
@@ -30,6 +31,10 @@ struct SolveOptions {
   std::string trace, out, image, json;
   int width = 512, height = 512;
   bool display_image = true;
+  // certified | none | hierarchical-fine (stand_in_reference.h): the latter two skip the dense
+  // matrix, for scenes too large for it.
+  std::string reference = "certified";
+  double reference_feps = 0.0025, reference_aeps = 1e-5;
 };
 
 std::string run_id_for(const SolveOptions& o, const std::string& params) {
@@ -88,7 +93,21 @@ void run(const SolveOptions& o, int argc, char** argv) {
     check_writable(std::filesystem::path(o.image).replace_extension(".png").string());
 
   ProblemSpec spec = make_spec(o.scene, o.ff);
+  if (o.reference != "certified") {
+    if (o.tol_given)
+      throw UsageError("--tol needs the certified reference (--reference certified)");
+    // No dense matrix: rows (for flat solvers) are computed on the fly.
+    spec.need_reference = false;
+    spec.row_mode = RowMode::kOnTheFly;
+  }
   auto problem = prepare_problem(spec);
+  if (o.reference == kHierarchicalFineReference) {
+    log::info("reference: NOT certified: a finer hierarchical run (feps " +
+              std::to_string(o.reference_feps) + ", aeps " + std::to_string(o.reference_aeps) +
+              ") stands in for it (the scene is too large for the certified one)");
+    problem->reference =
+        hierarchical_fine_reference(*problem->system, o.reference_feps, o.reference_aeps);
+  }
 
   std::unique_ptr<TraceWriter> trace;
   if (!o.trace.empty()) {
@@ -107,8 +126,14 @@ void run(const SolveOptions& o, int argc, char** argv) {
     std::printf("error        rms_rel %.6g, p_mean %.6g, p_max %.6g (display: rms_rel %.6g)\n",
                 result.final_errors.rms_rel, result.final_errors.p_mean, result.final_errors.p_max,
                 result.final_display_errors.rms_rel);
-    std::printf("certified    ||B - B*||_inf / max B* <= %.6g\n", result.final_bound_relative);
+    if (problem->reference->kind == "certified")
+      std::printf("certified    ||B - B*||_inf / max B* <= %.6g\n", result.final_bound_relative);
+    else
+      std::printf("reference    %s (NOT certified: %s)\n", problem->reference->kind.c_str(),
+                  problem->reference->method.c_str());
   }
+  for (const auto& [key, value] : solver->statistics())
+    std::printf("statistic    %-28s %.10g\n", key.c_str(), value);
   if (result.tolerance_asked)
     std::printf("verdict      %s\n",
                 result.tolerance_reached ? "tolerance reached" : result.tolerance_message.c_str());
@@ -131,6 +156,7 @@ void run(const SolveOptions& o, int argc, char** argv) {
     write_problem_info(json, *problem);
     write_solver_info(json, o.solver, bag.values());
     write_run_result(json, budget, result);
+    write_solver_statistics(json, *solver);
     json.end_object();
     ensure_parent_folder(json_path);
     json.save(json_path);
@@ -165,6 +191,15 @@ void add_solve_command(CLI::App& app, int argc, char** argv) {
   command->add_option("--width", o->width, "image width in pixels (default 512)");
   command->add_option("--height", o->height, "image height in pixels (default 512)");
   command->add_option("--json", o->json, "run.json path (default: beside the trace)");
+  command
+      ->add_option("--reference", o->reference,
+                   "certified (default; needs the dense matrix), none, or hierarchical-fine (an "
+                   "uncertified finer hierarchical run, for scenes too large for the dense matrix)")
+      ->check(CLI::IsMember({"certified", "none", kHierarchicalFineReference}));
+  command->add_option("--reference-feps", o->reference_feps,
+                      "feps of the hierarchical-fine reference (default 0.0025)");
+  command->add_option("--reference-aeps", o->reference_aeps,
+                      "aeps of the hierarchical-fine reference (default 1e-5)");
   command->callback([=]() {
     o->steps_given = steps->count() > 0;
     o->rows_given = rows->count() > 0;

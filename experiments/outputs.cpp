@@ -89,7 +89,13 @@ void write_problem_info(JsonWriter& json, const Problem& p) {
   if (p.reference) {
     const Reference& r = *p.reference;
     json.key("reference").begin_object();
+    json.field("kind", r.kind);
     json.field("method", r.method);
+    if (r.kind != "certified") {  // a stand-in: no bound to report, none implied
+      json.field("seconds", r.seconds);
+      json.end_object();
+      return;
+    }
     json.field("certified_system", r.system);
     json.field("bound_inf", r.bound_inf);
     json.field("bound_relative", r.bound_relative);
@@ -136,6 +142,14 @@ void write_run_result(JsonWriter& json, const Budget& budget, const RunResult& r
     json.field("tolerance_reached", r.tolerance_reached);
     if (!r.tolerance_reached) json.field("tolerance_message", r.tolerance_message);
   }
+  json.end_object();
+}
+
+void write_solver_statistics(JsonWriter& json, const Solver& solver) {
+  const auto statistics = solver.statistics();
+  if (statistics.empty()) return;
+  json.key("solver_statistics").begin_object();
+  for (const auto& [key, value] : statistics) json.field(key, value);
   json.end_object();
 }
 

@@ -16,6 +16,7 @@ const std::vector<SolverInfo>& solver_registry() {
       overshooting_solver_info(),
       interleaved_solver_info(),
       conjugate_gradient_solver_info(),
+      hierarchical_solver_info(),
   };
   return table;
 }

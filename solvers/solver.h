@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/radiosity.h"
@@ -49,6 +50,10 @@ class Solver {
   // leaves, adaptively split elements); 0 means "the mesh's elements". trace.csv writes it as
   // solver_elements, so a change in it marks a change of the solver's mesh.
   virtual size_t solver_elements() const { return 0; }
+  // Solver-specific statistics (e.g. hierarchical radiosity's nodes, links, rays, per pass), as
+  // key/value pairs in a stable order: written to run.json and printed at the end of `radlab
+  // solve`. Empty for most solvers.
+  virtual std::vector<std::pair<std::string, double>> statistics() const { return {}; }
 };
 
 }  // namespace radlab

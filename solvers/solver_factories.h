@@ -11,5 +11,6 @@ SolverInfo sorted_shooting_solver_info();     // sorted_shooting.cpp
 SolverInfo overshooting_solver_info();        // overshooting.cpp
 SolverInfo interleaved_solver_info();         // interleaved.cpp
 SolverInfo conjugate_gradient_solver_info();  // conjugate_gradient.cpp
+SolverInfo hierarchical_solver_info();        // hierarchical.cpp
 
 }  // namespace radlab

@@ -136,6 +136,10 @@ void run_rows(Solver& solver, const System& system, uint64_t rows) {
 
 class EverySolver : public ::testing::TestWithParam<std::string> {};
 
+// The one registered solver that does not solve the flat system (its own discretisation): the
+// tests say what it cannot satisfy and what they assert instead.
+const std::string kHierarchical = "hierarchical";
+
 TEST_P(EverySolver, ReachesTheReference) {
   // Symmetrised (see the note at the top): every solver's fixed point is then the reference's.
   // The cube and furnace at --subdiv 2 have equal element areas, so even float storage keeps
@@ -154,6 +158,16 @@ TEST_P(EverySolver, ReachesTheReference) {
       if (step % 64 == 0) error = max_relative_error(solver->solution(), s->reference.B);
     }
     error = max_relative_error(solver->solution(), s->reference.B);
+    if (GetParam() == kHierarchical) {
+      // Cannot satisfy 1e-9: a different discretisation (quadtrees, estimated link form factors),
+      // projected on this mesh; its fixed point differs from the flat reference by its
+      // refinement error, amplified by the multiple reflections (~1/(1-rho)). Asserted instead:
+      // within 2.5%/(1-rho) (max relative; the default feps = 0.01 gives 1-3% at rho = 0.5,
+      // ~10% at rho = 0.9).
+      const double bound = 0.025 / (1.0 - s->system->max_reflectance());
+      EXPECT_LE(error, bound) << spec << " after " << step << " steps";
+      continue;
+    }
     EXPECT_LE(error, 1e-9) << GetParam() << " on " << spec << " after " << step << " steps";
   }
 }
@@ -167,6 +181,14 @@ TEST_P(EverySolver, ReachesTheCornellReferenceWithinABudget) {
   solver->init(*s->system);
   // 60 sweeps' worth of rows: rho <= 0.78 gives a contraction of at most ~0.78 per sweep.
   run_rows(*solver, *s->system, 60 * s->n());
+  // hierarchical reads no rows (run_rows stops when it reaches its fixed point) and cannot reach
+  // 1e-5 of the flat reference (see ReachesTheReference): asserted within its rms floor instead.
+  if (GetParam() == kHierarchical) {
+    EXPECT_LE(
+        compare(solver->solution(), s->reference.B, s->system->area(), kMeanOfChannels).rms_rel,
+        2e-2);
+    return;
+  }
   EXPECT_LE(max_relative_error(solver->solution(), s->reference.B), 1e-5) << GetParam();
 }
 
@@ -349,6 +371,13 @@ TEST_P(EverySolver, RowsOnTheFlyAreCountedAndConverge) {
   while (streaming.rows_used() < 30 * s->n()) {
     ++steps;  // the step that finishes reads rows too (conjugate gradients stop at rounding)
     if (solver->step().finished) break;
+  }
+  if (GetParam() == kHierarchical) {
+    // It evaluates its own link form factors: no rows, and its own floor (ReachesTheReference).
+    EXPECT_EQ(streaming.rows_used(), 0u);
+    EXPECT_GT(streaming.pair_evaluations(), 0u);
+    EXPECT_LE(max_relative_error(solver->solution(), s->reference.B), 5e-2);
+    return;
   }
   if (GetParam() != "conjugate-gradient") {
     EXPECT_EQ(streaming.rows_used() - after_init, uint64_t(steps));
@@ -1173,7 +1202,8 @@ TEST(ConjugateGradient, EliminatesBlackElementsAndCountsItsRows) {
 TEST(Registry, CountsTheSolvers) {
   // jacobi, gauss-seidel (foundation); shooting, sorted-shooting, overshooting, interleaved,
   // conjugate-gradient (issue 4).
-  EXPECT_EQ(solver_registry().size(), 7u);
+  // hierarchical (issue 9).
+  EXPECT_EQ(solver_registry().size(), 8u);
 }
 
 TEST(Registry, UnknownSolverAndKeyListTheValidOnes) {
