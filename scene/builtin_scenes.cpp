@@ -9,6 +9,7 @@
 #include "core/text.h"
 #include "scene/geometry.h"
 #include "scene/paper_scenes.h"
+#include "scene/stability_scenes.h"
 
 namespace radlab {
 namespace {
@@ -232,6 +233,44 @@ const std::vector<BuiltinScene>& builtin_scenes() {
         {"rho_scale", "1", "multiplies every reflectance (must stay <= 1)"},
         {"patch", "0.9", "target patch edge (m); the element target assumes the default"}},
        make_computer_room_scene},
+      // Stiff and extreme cases for the stability table (scene/stability_scenes.h).
+      {"tiny-light",
+       "4 x 3 x 5 m closed room lit only by a tiny, very bright square below the ceiling (grey)",
+       {{"size", "0.001", "the lamp's edge (m)"},
+        {"emission", "1e6", "the lamp's emission"},
+        {"rho", "0.5", "reflectance of every surface"},
+        {"drop", "0.01", "the lamp's distance below the ceiling (m)"}},
+       make_tiny_light_scene},
+      {"area-ratio",
+       "closed unit cube whose floor has a corner piece 'ratio' times smaller than its neighbour "
+       "(grey)",
+       {{"ratio", "1e6", "area of the big floor piece over the corner piece's (>= 1)"},
+        {"rho", "0.9", "reflectance of every face"},
+        {"emission", "1", "emission of the ceiling"}},
+       make_area_ratio_scene},
+      {"slivers",
+       "closed unit cube whose floor is a fan of sliver triangles plus one quadrilateral (grey)",
+       {{"aspect", "1e-4", "each sliver's height over its length"},
+        {"count", "4", "number of slivers"},
+        {"rho", "0.9", "reflectance of every face"},
+        {"emission", "1", "emission of the ceiling"}},
+       make_slivers_scene},
+      {"overlap",
+       "closed unit cube with a second polygon (a rug) coplanar with its floor: unphysical "
+       "input (grey)",
+       {{"rug", "0.5", "the rug's edge (m)"},
+        {"lift", "0", "the rug's height above the floor (m); 0: coplanar"},
+        {"rho", "0.9", "reflectance of the box"},
+        {"rug_rho", "0.5", "reflectance of the rug"},
+        {"emission", "1", "emission of the ceiling"}},
+       make_overlap_scene},
+      {"near-pair",
+       "two parallel unit squares 'gap' apart, facing each other, open sides; the lower emits "
+       "(grey)",
+       {{"gap", "0.001", "distance between the squares (m)"},
+        {"rho", "0.9", "reflectance of both"},
+        {"emission", "1", "emission of the lower square"}},
+       make_near_pair_scene},
   };
   return table;
 }

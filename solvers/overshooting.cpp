@@ -25,7 +25,9 @@
 //   it uses each element's overshoot from its last shot (0 before its first), and finds the
 //   maximum inside the shot's pass (the shooter's new o_i is set before its shot).
 // Paper: Feda & Purgathofer 1992 and Gortler et al. 1994, as summarised by Wu & Wang 2002 §2.
-// Parameters: variant (ambient | regather, default regather), clamp (bool, default false).
+// Parameters: variant (ambient | regather, default regather), clamp (bool, default false),
+//   storage (double | float, default double: float rounds x and dB to float after every shot,
+//   the accumulation of a float implementation; ShootingCore::set_float_storage).
 // Cost per step: one form-factor row; the ambient variant adds two passes over dB in memory (the
 //   unshot power, then the selection: its offset changes for every element at every shot), the
 //   regather variant a gather over the same row (two passes over the row, the second from cache).
@@ -48,11 +50,13 @@ struct OvershootingOptions {
                                      // entry, a crude global guess) or "regather" (exact first
                                      // bounce of the current unshot energy, per element)
   bool clamp = false;  // count only positive unshot radiosity in o_i: steadier, less aggressive
+  bool float_storage = false;  // storage=float: x and dB kept in float (Wu & Wang's baseline)
 
   static OvershootingOptions from(ParamBag& bag) {
     OvershootingOptions o;
     o.variant = bag.get_choice("variant", o.variant, {"ambient", "regather"});
     o.clamp = bag.get_bool("clamp", o.clamp);
+    o.float_storage = bag.get_choice("storage", "double", {"double", "float"}) == "float";
     o.validate();
     return o;
   }
@@ -69,6 +73,7 @@ class OvershootingSolver final : public Solver {
 
   void init(const System& system) override {
     core_.init(system);
+    core_.set_float_storage(options_.float_storage);
     interreflection_.clear();
     overshoot_ = Radiosity(system.channels(), system.shooters().size());
     // Regather: the core's priorities are A_j sum_c |dB_cj + o_cj|, so each shot returns the
@@ -163,7 +168,8 @@ SolverInfo overshooting_solver_info() {
           "one form-factor row",
           {{"variant", "regather",
             "overshoot estimate: ambient (rho_i R avg unshot) or regather (rho_i sum F_ij dB_j)"},
-           {"clamp", "false", "count only positive unshot radiosity in the estimate"}},
+           {"clamp", "false", "count only positive unshot radiosity in the estimate"},
+           {"storage", "double", "double or float: keep x and dB in float (Wu & Wang's baseline)"}},
           [](ParamBag& bag) -> std::unique_ptr<Solver> {
             return std::make_unique<OvershootingSolver>(OvershootingOptions::from(bag));
           }};

@@ -34,6 +34,15 @@ void ShootingCore::init(const System& system) {
   }
   if (runs_.size() * kMinimumRun > n) runs_.clear();
   offset_ = nullptr;
+  float_ = false;
+  dirty_ = true;
+}
+
+void ShootingCore::set_float_storage(bool on) {
+  float_ = on;
+  if (!on) return;
+  for (double& v : dB_.raw()) v = double(float(v));
+  for (double& v : x_.raw()) v = double(float(v));
   dirty_ = true;
 }
 
@@ -83,6 +92,11 @@ kernels::Argmax ShootingCore::shoot(const T* F, size_t i, const double* s, bool 
     x_.at(c, i) += s[c];
   }
   dirty_ = true;
+  if (float_) {
+    for (double& v : dB_.raw()) v = double(float(v));
+    for (int c = 0; c < channels(); ++c) x_.at(c, i) = double(float(x_.at(c, i)));
+    return select ? max_priority() : kernels::Argmax{};
+  }
   if (!select) return {};
   // Ties go to the lowest index: the elements before i, then i, then those after.
   kernels::Argmax best = before;

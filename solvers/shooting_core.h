@@ -84,8 +84,18 @@ class ShootingCore {
   // Adds v to dB_cj without shooting (gathers; bookkeeping corrections).
   void add_unshot(int c, size_t j, double v) {
     dB_.at(c, j) += v;
+    if (float_) dB_.at(c, j) = double(float(dB_.at(c, j)));
     dirty_ = true;
   }
+
+  // Float storage of x and dB (Wu & Wang 2002 §4 blame part of their pure-shooting curves'
+  // rise on "accumulated numerical error"; a 2002 implementation kept radiosities in float).
+  // On: after every shot (and in add_unshot) each dB_cj and the shooter's x_ci are rounded to
+  // float, as if stored in float arrays with each update computed in double; the next shooter
+  // is then found by a full scan (the fused selection saw the unrounded values). Off (default):
+  // double throughout. Set after init().
+  void set_float_storage(bool on);
+  bool float_storage() const { return float_; }
 
   const Radiosity& unshot() const { return dB_; }
   const Radiosity& shot() const { return x_; }
@@ -108,6 +118,7 @@ class ShootingCore {
   std::vector<double> amounts_;                // a patch shot's s_i per member and channel
   mutable Radiosity B_;
   mutable bool dirty_ = true;
+  bool float_ = false;  // float storage of x and dB (set_float_storage)
 };
 
 // The area-weighted average reflectance per channel (Cohen et al. 1988 eq. 10).

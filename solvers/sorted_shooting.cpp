@@ -16,7 +16,9 @@
 //   The ambient never enters dB or the solution: solution() is the same with or without it.
 // Paper: Cohen et al. 1988 "Shooting and Sorting" and "... and Ambient" (Figs. 4, 5, 7);
 //   Gortler, Cohen & Slusallek 1994 for the Southwell reading and over-relaxation.
-// Parameters: ambient (bool, default false), omega (in (0,2), default 1).
+// Parameters: ambient (bool, default false), omega (in (0,2), default 1), storage (double |
+//   float, default double: float rounds x and dB to float after every shot, to reproduce the
+//   accumulation of a float implementation; ShootingCore::set_float_storage).
 // Cost per step: one form-factor row; the selection is fused into the row's pass. display()
 //   with ambient costs O(n) per call (the runner calls it at checkpoints only).
 // Left out: Cohen's incremental Delta-Ambient update of the displayed elements (display() forms
@@ -35,11 +37,13 @@ struct SortedShootingOptions {
                          // shots, at the price of over-lit shadows early on; no effect on solution
   double omega = 1.0;    // shoots omega dB_i: > 1 over-relaxes (can be faster, dB may go negative,
                          // the approach from below is lost), < 1 under-relaxes
+  bool float_storage = false;  // storage=float: x and dB kept in float (Wu & Wang's baseline)
 
   static SortedShootingOptions from(ParamBag& bag) {
     SortedShootingOptions o;
     o.ambient = bag.get_bool("ambient", o.ambient);
     o.omega = bag.get_double("omega", o.omega);
+    o.float_storage = bag.get_choice("storage", "double", {"double", "float"}) == "float";
     o.validate();
     return o;
   }
@@ -56,6 +60,7 @@ class SortedShootingSolver final : public Solver {
 
   void init(const System& system) override {
     core_.init(system);
+    core_.set_float_storage(options_.float_storage);
     best_ = core_.max_priority();
     interreflection_.clear();
     if (options_.ambient) {
@@ -114,7 +119,8 @@ SolverInfo sorted_shooting_solver_info() {
           "Cohen et al. 1988 'Shooting and Sorting' (+ 'Ambient', eqs 9-13)",
           "one form-factor row (selection fused into the shot)",
           {{"ambient", "false", "add Cohen's display-only ambient term to display()"},
-           {"omega", "1", "shoot omega*dB_i; in (0,2), > 1 over-relaxes"}},
+           {"omega", "1", "shoot omega*dB_i; in (0,2), > 1 over-relaxes"},
+           {"storage", "double", "double or float: keep x and dB in float (Wu & Wang's baseline)"}},
           [](ParamBag& bag) -> std::unique_ptr<Solver> {
             return std::make_unique<SortedShootingSolver>(SortedShootingOptions::from(bag));
           }};

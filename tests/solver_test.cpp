@@ -458,82 +458,8 @@ INSTANTIATE_TEST_SUITE_P(
                       "conjugate-gradient:symmetrise=true"),
     test_name);
 
-// ---------------------------------------------------------------------------------------------
-// Monotone approach from below.
-
-class MonotoneFromBelow : public SolverVariant {};
-
-TEST_P(MonotoneFromBelow, NoCheckpointWorseThanTheLast) {
-  // From B = E with J >= 0 (and exact reciprocity, so shooting's fixed point is the reference's:
-  // a double-precision symmetrised matrix), each of these methods only ever adds non-negative
-  // amounts: every element rises and stays below the solution, so the error never grows.
-  // Slack: 1e-12 relative for double rounding (values are sums of <= 80 positive terms) plus the
-  // reference's certified bound.
-  auto s = setup("cornell", 2, Precision::kDouble, /*symmetrised=*/true);
-  auto solver = create();
-  solver->init(*s->system);
-  const auto area = s->system->area();
-  const double slack = 1e-12;
-  Radiosity last = solver->solution();
-  double last_error = 1e300;
-  for (int checkpoint = 0; checkpoint < 60; ++checkpoint) {
-    for (size_t k = 0; k < s->n() / 4; ++k) solver->step();
-    const Radiosity& B = solver->solution();
-    double error = 0.0;  // area-weighted L1 error over the channels
-    for (int c = 0; c < s->channels(); ++c)
-      for (size_t i = 0; i < s->n(); ++i) {
-        const double ref = s->reference.B.at(c, i);
-        ASSERT_LE(B.at(c, i), ref * (1 + slack) + s->reference.bound_inf)
-            << GetParam() << " element " << i << " checkpoint " << checkpoint;
-        ASSERT_GE(B.at(c, i), last.at(c, i) * (1 - slack))
-            << GetParam() << " element " << i << " checkpoint " << checkpoint;
-        error += area[i] * std::abs(ref - B.at(c, i));
-      }
-    ASSERT_LE(error, last_error * (1 + slack) + 1e-12) << GetParam() << " " << checkpoint;
-    last_error = error;
-    last = B;
-  }
-  if (auto* il = dynamic_cast<const InterleavedSolver*>(solver.get())) {
-    EXPECT_GT(il->live_sessions(), 0u) << "the run should have gathered";
-  }
-}
-
-INSTANTIATE_TEST_SUITE_P(Solvers, MonotoneFromBelow,
-                         ::testing::Values("jacobi", "gauss-seidel", "shooting", "sorted-shooting",
-                                           "interleaved:shots=20,gathers=10"),
-                         test_name);
-
-// Gathering from B = E with non-negative J: every iterate lies below the solution and no
-// element ever decreases; after each sweep Gauss–Seidel lies above Jacobi element-wise.
-TEST(Gathering, MonotoneFromBelowAndGaussSeidelAheadOfJacobi) {
-  auto s = setup("cornell", 2);
-  auto jacobi = make("jacobi");
-  auto gs = make("gauss-seidel");
-  jacobi->init(*s->system);
-  gs->init(*s->system);
-  const size_t n = s->mesh.size();
-  Radiosity last_j = jacobi->solution(), last_g = gs->solution();
-  const double slack = 1e-12;  // rounding of the double accumulations
-  for (int sweep = 0; sweep < 6; ++sweep) {
-    for (size_t k = 0; k < n; ++k) {
-      jacobi->step();
-      gs->step();
-    }
-    const Radiosity& J = jacobi->solution();
-    const Radiosity& G = gs->solution();
-    for (int c = 0; c < 3; ++c)
-      for (size_t i = 0; i < n; ++i) {
-        const double ref = s->reference.B.at(c, i);
-        EXPECT_LE(J.at(c, i), ref * (1 + slack) + s->reference.bound_inf);
-        EXPECT_LE(G.at(c, i), ref * (1 + slack) + s->reference.bound_inf);
-        EXPECT_GE(J.at(c, i), last_j.at(c, i) * (1 - slack));
-        EXPECT_GE(G.at(c, i), last_g.at(c, i) * (1 - slack));
-        EXPECT_GE(G.at(c, i), J.at(c, i) * (1 - slack)) << "sweep " << sweep;
-      }
-    last_j = J;
-    last_g = G;
-  }
-}
+// The monotone approach from below and Gauss–Seidel ahead of Jacobi are in
+// tests/orderings_test.cpp (ctest label `orderings`), on several scene families.
 
 // ---------------------------------------------------------------------------------------------
 // The furnace against its analytic answer.
