@@ -2,7 +2,7 @@
 // campaign, reproduced. Small inputs must not ask for unbounded work or memory (estimated and
 // refused before allocating), numbers must be range-checked in 64 bits before they become ints,
 // wrong scenes must be refused rather than solved, and no input may make radlab read or write
-// outside the places it names. docs/reliability_input.md lists every defect with its test.
+// outside the places it names. docs/reliability.md lists every defect with its test.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
