@@ -17,23 +17,12 @@ namespace {
 
 using testing::TempDir;
 
-struct Result {
-  int code = -1;
-  std::string output;  // stdout and stderr together
-};
+using Result = radlab::testing::CommandResult;
 
 Result radlab(const std::string& arguments) {
   // `timeout` turns a hang into a failure (exit 124) instead of a stuck test.
-  const std::string command =
-      "timeout 120 " + std::string(RADLAB_BINARY) + " " + arguments + " 2>&1";
-  Result r;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (!pipe) return r;
-  std::array<char, 4096> buffer;
-  while (size_t n = fread(buffer.data(), 1, buffer.size(), pipe)) r.output.append(buffer.data(), n);
-  const int status = pclose(pipe);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
+  return radlab::testing::run_command("timeout 120 " + std::string(RADLAB_BINARY) + " " +
+                                      arguments);
 }
 
 #define EXPECT_OUTPUT_HAS(result, text) \

@@ -104,23 +104,12 @@ void run_two_shards(const TempDir& dir, const std::string& toml = kTwoRuns) {
 
 // --- The command line -------------------------------------------------------------------------
 
-struct Result {
-  int code = -1;
-  std::string output;  // stdout and stderr together
-};
+using Result = radlab::testing::CommandResult;
 
 // Runs `shell_command` under sh (so tests can set limits first); `timeout` turns a hang into a
 // failure (exit 124).
 Result shell(const std::string& shell_command) {
-  const std::string command = "timeout 120 sh -c '" + shell_command + "' 2>&1";
-  Result r;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (!pipe) return r;
-  std::array<char, 4096> buffer;
-  while (size_t n = fread(buffer.data(), 1, buffer.size(), pipe)) r.output.append(buffer.data(), n);
-  const int status = pclose(pipe);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
+  return radlab::testing::run_command("timeout 120 sh -c '" + shell_command + "'");
 }
 
 // `radlab ARGUMENTS` with its own cache folder.

@@ -40,22 +40,11 @@ struct DefaultLimits {
   ~DefaultLimits() { limits() = Limits{}; }
 };
 
-struct Result {
-  int code = -1;
-  std::string output;  // stdout and stderr together
-};
+using Result = radlab::testing::CommandResult;
 
 // Runs a shell command line, stdout and stderr together.
 Result radlab_shell(const std::string& line) {
-  const std::string command = "(" + line + ") 2>&1";
-  Result r;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (!pipe) return r;
-  std::array<char, 4096> buffer;
-  while (size_t n = fread(buffer.data(), 1, buffer.size(), pipe)) r.output.append(buffer.data(), n);
-  const int status = pclose(pipe);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
+  return radlab::testing::run_command(line);
 }
 
 Result radlab(const std::string& arguments) {

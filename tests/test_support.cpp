@@ -1,6 +1,10 @@
 #include "tests/test_support.h"
 
+#include <sys/wait.h>
+
 #include <algorithm>
+#include <array>
+#include <cstdio>
 #include <fstream>
 #include <random>
 
@@ -37,6 +41,17 @@ std::string TempDir::write(const std::string& name, const std::string& contents)
   std::string p = file(name);
   std::ofstream(p) << contents;
   return p;
+}
+
+CommandResult run_command(const std::string& shell_command) {
+  CommandResult r;
+  FILE* pipe = popen(("(" + shell_command + ") 2>&1").c_str(), "r");
+  if (!pipe) return r;
+  std::array<char, 4096> buffer;
+  while (size_t n = fread(buffer.data(), 1, buffer.size(), pipe)) r.output.append(buffer.data(), n);
+  const int status = pclose(pipe);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
 }
 
 }  // namespace radlab::testing

@@ -48,4 +48,12 @@ void expect_error(Fn fn, std::initializer_list<std::string> parts) {
   }
 }
 
+// A command line's exit code and its stdout and stderr together.
+struct CommandResult {
+  int code = -1;  // -1 when it did not exit normally (killed by a signal) or could not start
+  std::string output;
+};
+// Runs `shell_command` through sh, stderr into stdout.
+CommandResult run_command(const std::string& shell_command);
+
 }  // namespace radlab::testing
