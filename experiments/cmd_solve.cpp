@@ -156,7 +156,7 @@ void run(const SolveOptions& o, int argc, char** argv) {
     write_problem_info(json, *problem);
     write_solver_info(json, o.solver, bag.values());
     write_run_result(json, budget, result);
-    write_solver_statistics(json, *solver);
+    write_solver_statistics(json, *solver, problem.get());
     json.end_object();
     ensure_parent_folder(json_path);
     json.save(json_path);

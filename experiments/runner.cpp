@@ -9,6 +9,7 @@
 #include "core/log.h"
 #include "core/progress.h"
 #include "core/text.h"
+#include "experiments/two_level_problem.h"
 
 namespace radlab {
 
@@ -67,6 +68,8 @@ class Evaluator {
     std::vector<double> residual;
     if (problem_.has_matrix())
       residual = residual_inf(*problem_.system, problem_.certified_matrix(), B);
+    else if (problem_.system->two_level() && problem_.reference)
+      residual = two_level_residual(problem_, B);  // from the patch rows (two_level_problem.h)
     const double inverse_norm =
         problem_.reference ? problem_.reference->inverse_norm_bound : std::nan("");
     const auto area = problem_.system->area();

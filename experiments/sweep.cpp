@@ -446,7 +446,7 @@ SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
       JsonWriter json;
       begin_run_json(json, spec, run, problem.get(), &bag->values());
       write_run_result(json, spec.budget, result);
-      write_solver_statistics(json, *solver);
+      write_solver_statistics(json, *solver, problem.get());
       json.end_object();
       json.save((out / "runs" / (stem + ".run.json")).string());
     } catch (const Error& e) {

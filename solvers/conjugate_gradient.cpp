@@ -249,6 +249,10 @@ class ConjugateGradientSolver final : public Solver {
 
   void check_reciprocity() const {
     const FormFactorMatrix* F = system_->matrix();
+    if (system_->two_level())
+      throw UsageError(
+          "conjugate-gradient needs a reciprocal system (A_i F_ij = A_j F_ji); the two-level "
+          "system is not (A_e K_ej != A_j K_je); use gathering or shooting");
     if (!F)
       throw UsageError(
           "conjugate-gradient needs reciprocal form factors and checks them on the cached "

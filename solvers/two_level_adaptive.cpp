@@ -38,6 +38,8 @@
 //   each subdivision pass forms vertex values over the evaluation mesh (O(n)).
 // Left out: subdividing patches (the paper: rarely needed), T-junction handling in the display
 //   (the images show the evaluation mesh, each fine element its block's value).
+#include "solvers/two_level_adaptive.h"
+
 #include <algorithm>
 #include <cmath>
 #include <glm/geometric.hpp>
@@ -158,6 +160,7 @@ class AdaptiveShootingSolver final : public Solver {
     return &fine_dB_;
   }
   size_t solver_elements() const override { return blocks_.size(); }
+  const std::vector<uint32_t>& block_of() const { return block_of_; }
 
   Radiosity display() const override {
     Radiosity shown = solution();
@@ -362,6 +365,11 @@ class AdaptiveShootingSolver final : public Solver {
 };
 
 }  // namespace
+
+std::vector<uint32_t> adaptive_blocks(const Solver& solver) {
+  const auto* adaptive = dynamic_cast<const AdaptiveShootingSolver*>(&solver);
+  return adaptive ? adaptive->block_of() : std::vector<uint32_t>{};
+}
 
 SolverInfo adaptive_shooting_solver_info() {
   return {
