@@ -51,9 +51,9 @@ void prepare_two_level(Problem& problem, bool accept_unphysical) {
   problem.build.cost = report.cost;
   problem.build.seconds = report.seconds;
   log::info("two levels: " + std::to_string(P) + " patches (" + spec.patches.canonical() +
-            ", rows " + rule_name + ") shoot to " + std::to_string(n) +
-            " elements; largest patch " + std::to_string(problem.patches.largest()) +
-            " elements; " + report.summary());
+            (spec.patches.rows == "auto" ? ", rows " + rule_name : std::string()) + ") shoot to " +
+            std::to_string(n) + " elements; largest patch " +
+            std::to_string(problem.patches.largest()) + " elements; " + report.summary());
   const double stated = stated_row_sum_error(*problem.method);
   if (report.max_row_sum > 1.0 + stated) {
     char buffer[300];
