@@ -276,6 +276,21 @@ TEST(TwoLevel, BadPatchParametersAreUsageErrors) {
         o.validate();
       },
       {"size is used only with from = \"size\""});
+  expect_error<UsageError>(
+      [] {
+        PatchOptions o;
+        o.from = "polygons";
+        o.rows = "corner";
+        o.validate();
+      },
+      {"rows must be auto, centre or mean", "corner"});
+  expect_error<UsageError>(
+      [] {
+        PatchOptions o;
+        o.rows = "centre";  // one level: no patch rows to make
+        o.validate();
+      },
+      {"rows is used only with two levels"});
   // Larger than the scene: a 1 m square (diagonal 1.41 m) with 2 m patches.
   Scene scene = testing::scene_of({{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}}});
   validate_scene(scene);
@@ -289,6 +304,11 @@ TEST(TwoLevel, BadPatchParametersAreUsageErrors) {
                 "scenes = [\"builtin:cube\"]\nsolvers = [\"shooting\"]\n[patches]\nfrom = "
                 "\"size\"\nsize = -0.5\n");
   expect_error<InputError>([&] { read_experiment(file); }, {"bad.toml:3", "size must be"});
+  const std::string rows =
+      dir.write("rows.toml",
+                "scenes = [\"builtin:cube\"]\nsolvers = [\"shooting\"]\n[patches]\nfrom = "
+                "\"polygons\"\nrows = \"edges\"\n");
+  expect_error<InputError>([&] { read_experiment(rows); }, {"rows.toml:3", "rows must be"});
 }
 
 TEST(TwoLevel, InterleavedRefusesPatchShooters) {
