@@ -193,7 +193,8 @@ void check_stagnation(const Problem& problem, const RunResult& result, double bo
       text::format_double(before) + "), over " + std::to_string(long(std::ceil(sweeps))) +
       "+ sweeps in which a solver converging at the spectral radius (<= " + text::format_double(r) +
       " per sweep) halves its error";
-  if (problem.computed.size() > 0)
+  if (problem.computed.size() > 0 ||
+      (problem.system->two_level() && problem.patch_rows.precision() == Precision::kFloat))
     why +=
         ". F is stored in float and the certificate is of the double-precision F: float "
         "rounding floors the bound (use --precision double to go lower)";
