@@ -81,6 +81,13 @@ class ConjugateGradientSolver final : public Solver {
       for (int c = 0; c < channels; ++c) reflects |= rho.at(c, i) > 0.0;
       if (reflects) active_.push_back(i);
     }
+    // The two-level system is not reciprocal (A_e K_ej != A_j K_je), and symmetrising it would
+    // solve another system than the one its reference certifies.
+    if (system_->two_level())
+      throw UsageError(
+          "conjugate-gradient needs a reciprocal system (A_i F_ij = A_j F_ji); the two-level "
+          "system is not (A_e K_ej != A_j K_je) and symmetrise=true would solve another one; use "
+          "gathering or shooting");
     if (!options_.symmetrise) check_reciprocity();
 
     B_ = system.emission();
@@ -249,10 +256,6 @@ class ConjugateGradientSolver final : public Solver {
 
   void check_reciprocity() const {
     const FormFactorMatrix* F = system_->matrix();
-    if (system_->two_level())
-      throw UsageError(
-          "conjugate-gradient needs a reciprocal system (A_i F_ij = A_j F_ji); the two-level "
-          "system is not (A_e K_ej != A_j K_je); use gathering or shooting");
     if (!F)
       throw UsageError(
           "conjugate-gradient needs reciprocal form factors and checks them on the cached "

@@ -311,6 +311,18 @@ TEST(TwoLevel, BadPatchParametersAreUsageErrors) {
   expect_error<InputError>([&] { read_experiment(rows); }, {"rows.toml:3", "rows must be"});
 }
 
+TEST(TwoLevel, ConjugateGradientRefusesTheTwoLevelSystem) {
+  // K is not reciprocal, and CG's symmetrise=true would converge to another system than the
+  // certified one: both refused, naming why.
+  auto s = setup("cube", 2, Precision::kFloat, false);
+  for (const std::vector<std::string>& params :
+       {std::vector<std::string>{}, std::vector<std::string>{"symmetrise=true"}}) {
+    auto solver = make("conjugate-gradient", params);
+    testing::expect_error<UsageError>([&] { solver->init(*s->two_level); },
+                                      {"conjugate-gradient", "two-level", "not"});
+  }
+}
+
 TEST(TwoLevel, InterleavedRefusesPatchShooters) {
   auto s = setup("cube", 2, Precision::kFloat, false);
   auto solver = make("interleaved", {});
