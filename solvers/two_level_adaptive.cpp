@@ -23,7 +23,10 @@
 // Measurement: solution() projects the blocks onto the evaluation mesh (each fine element shows its
 //   block's value), so errors stay comparable while the mesh changes; solver_elements() is the
 //   number of blocks (trace.csv marks every mesh change). The run's reference is that of the
-//   fine two-level system (the finest allowed subdivision). The adaptive estimate is not the
+//   fine two-level system (the finest allowed subdivision); run.json adds the certified reference
+//   of the final blocks' system and the distances to it (adaptive_blocks() gives the blocks;
+//   experiments/two_level_problem.h, docs/solvers.md say why the trace keeps the fine one). The
+//   adaptive estimate is not the
 //   solution of any one linear system: light received before a block split stays spread evenly
 //   over its children (only the current shot is re-shot to them), so it approaches the fine
 //   solution only where it subdivided before the light arrived; with levels deep enough that
