@@ -65,26 +65,27 @@ void BlockedLu::factorise() {
                         });
     }
     // 2. The panel's row swaps in the columns left and right of it (each column independently),
-    // and 3. U12 = L11^-1 A12 for the columns right of it.
+    // and 3. U12 = L11^-1 A12 for the columns right of it: Eigen's blocked triangular solve, on
+    // chunks of columns fixed by n (the same shapes whatever the thread count).
     const size_t kb = k1 - k0;
     const size_t chunks = (n + kColChunk - 1) / kColChunk;
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, chunks, 1),
-                      [&](const tbb::blocked_range<size_t>& r) {
-                        for (size_t c = r.begin(); c != r.end(); ++c) {
-                          const size_t lo = c * kColChunk, hi = std::min(n, lo + kColChunk);
-                          for (size_t j = lo; j < hi; ++j) {
-                            if (j >= k0 && j < k1) continue;
-                            for (size_t k = k0; k < k1; ++k)
-                              if (pivot_[k] != k) std::swap(at(k, j), at(pivot_[k], j));
-                            if (j < k1) continue;
-                            // Forward substitution with the unit lower triangle L11, one column.
-                            for (size_t k = k0; k < k1; ++k) {
-                              const double u = at(k, j);
-                              for (size_t i = k + 1; i < k1; ++i) at(i, j) -= at(i, k) * u;
-                            }
-                          }
-                        }
-                      });
+    tbb::parallel_for(
+        tbb::blocked_range<size_t>(0, chunks, 1), [&](const tbb::blocked_range<size_t>& r) {
+          for (size_t c = r.begin(); c != r.end(); ++c) {
+            const size_t lo = c * kColChunk, hi = std::min(n, lo + kColChunk);
+            for (size_t j = lo; j < hi; ++j) {
+              if (j >= k0 && j < k1) continue;
+              for (size_t k = k0; k < k1; ++k)
+                if (pivot_[k] != k) std::swap(at(k, j), at(pivot_[k], j));
+            }
+            const size_t first = std::max(lo, k1);
+            if (first >= hi) continue;
+            const Stride stride{Eigen::Index(n)};
+            const Block l11(&at(k0, k0), Eigen::Index(kb), Eigen::Index(kb), stride);
+            Block a12(&at(k0, first), Eigen::Index(kb), Eigen::Index(hi - first), stride);
+            l11.triangularView<Eigen::UnitLower>().solveInPlace(a12);
+          }
+        });
     if (k1 == n) break;
     // 4. A22 -= L21 U12 in fixed tiles.
     const size_t m = n - k1;

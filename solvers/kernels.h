@@ -76,6 +76,14 @@ Argmax shoot(const float* F, size_t lo, size_t hi, const double* k, double cover
 Argmax shoot(const double* F, size_t lo, size_t hi, const double* k, double coverage_scale,
              const ShotTargets& targets, bool select);
 
+// Shots over at least set_parallel_shot_minimum() receivers (default
+// kDefaultParallelShotMinimum) are split over threads in pieces of kShotChunk receivers at fixed
+// boundaries: the same bits on any number of threads (docs/performance.md has the measurement
+// behind the default). Returns the previous minimum; SIZE_MAX turns the split off.
+inline constexpr size_t kShotChunk = 4096;
+inline constexpr size_t kDefaultParallelShotMinimum = 16384;
+size_t set_parallel_shot_minimum(size_t receivers);
+
 // The largest priority over [lo, hi) without changing anything (after gathers, or at init).
 Argmax max_priority(size_t lo, size_t hi, const ShotTargets& targets);
 

@@ -10,6 +10,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <fstream>
 #include <mutex>
@@ -24,6 +25,7 @@
 #include "scene/builtin_scenes.h"
 #include "scene/validate.h"
 #include "solvers/dense_lu.h"
+#include "solvers/kernels.h"
 #include "solvers/registry.h"
 #include "solvers/system.h"
 #include "tests/test_support.h"
@@ -98,27 +100,35 @@ TEST(ParallelRow, ExactAndHemicubeRowsAreTheirRows) {
   }
 }
 
-// A method whose blocks take ~1 ms each and record the thread that ran them: the row must
-// really be shared between threads (without the split, one thread computes all of it).
-class SlowMethod final : public FormFactorMethod {
+// A method that records the threads running its row's blocks. Every block after the first
+// (which row_in_parallel runs on the calling thread before it splits the rest) waits, up to 20 s,
+// until a second thread has run a block: on a loaded machine a worker may take a while to be
+// scheduled, but unless the row really is split, no second thread ever comes and the test fails.
+class TwoThreadMethod final : public FormFactorMethod {
  public:
-  std::string name() const override { return "slow"; }
+  std::string name() const override { return "two-thread"; }
   std::string parameters() const override { return ""; }
   void row(size_t i, std::span<double> out, RowCost& cost) const override {
-    row_part(i, 0, out.size(), out, cost);
+    for (size_t j = 0; j < out.size(); ++j) out[j] = double(i + j);
+    cost.kernel_evaluations += out.size();
   }
   bool row_part(size_t i, size_t lo, size_t hi, std::span<double> out,
                 RowCost& cost) const override {
-    const auto until = std::chrono::steady_clock::now() + std::chrono::microseconds(1000);
-    while (std::chrono::steady_clock::now() < until) {
+    {
+      std::lock_guard lock(mutex_);
+      threads_.insert(std::this_thread::get_id());
     }
+    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (lo > 0 && threads_seen() < 2 && std::chrono::steady_clock::now() < until)
+      std::this_thread::yield();
     for (size_t j = lo; j < hi; ++j) out[j] = double(i + j);
     cost.kernel_evaluations += hi - lo;
-    std::lock_guard lock(mutex_);
-    threads_.insert(std::this_thread::get_id());
     return true;
   }
-  size_t threads_seen() const { return threads_.size(); }
+  size_t threads_seen() const {
+    std::lock_guard lock(mutex_);
+    return threads_.size();
+  }
 
  private:
   mutable std::mutex mutex_;
@@ -126,8 +136,8 @@ class SlowMethod final : public FormFactorMethod {
 };
 
 TEST(ParallelRow, SharesARowBetweenThreads) {
-  SlowMethod method;
-  const size_t n = 128 * kRowBlock;  // 128 blocks, ~128 ms on one thread
+  TwoThreadMethod method;
+  const size_t n = 16 * kRowBlock;
   std::vector<double> out(n);
   RowCost cost;
   on_threads(2, [&] { row_in_parallel(method, 3, out, cost); });
@@ -157,6 +167,70 @@ TEST(ParallelRow, OnTheFlySolverRunIsTheSameBitsOnOneTwoFourThreads) {
     Radiosity B;
     on_threads(threads, [&] { B = run(on_the_fly); });
     EXPECT_TRUE(same_bits(expected.raw(), B.raw())) << threads << " threads";
+  }
+}
+
+// A long RGB shot with fused selection and coverage, split over threads (kernels.h): the same
+// dB, coverage and argmax as the unsplit pass, on 1, 2 and 4 threads. The largest priority is
+// planted twice, so the tie rule (lowest index) is tested across the pieces.
+TEST(ParallelShot, SameBitsAsTheUnsplitShotOnOneTwoFourThreads) {
+  const size_t n = 5 * kernels::kShotChunk + 123;
+  ASSERT_GE(n, kernels::kDefaultParallelShotMinimum);
+  Pcg32 rng(9);
+  std::vector<float> F(n);
+  std::vector<double> inverse_area(n), area(n), start[3], rho[3];
+  for (size_t j = 0; j < n; ++j) {
+    F[j] = float(1e-4 * rng.next_double());
+    area[j] = 0.5 + rng.next_double();
+    inverse_area[j] = 1.0 / area[j];
+  }
+  for (int c = 0; c < 3; ++c) {
+    start[c].resize(n);
+    rho[c].resize(n);
+    for (size_t j = 0; j < n; ++j) {
+      start[c][j] = 1e-3 * rng.next_double();
+      rho[c][j] = 0.3 + 0.6 * rng.next_double();
+    }
+  }
+  // Two receivers, in different pieces, end with the same largest priority.
+  for (size_t j : {size_t(kernels::kShotChunk + 5), size_t(3 * kernels::kShotChunk + 7)}) {
+    F[j] = 0.0f;
+    area[j] = 1000.0;
+    inverse_area[j] = 1.0 / area[j];
+    for (int c = 0; c < 3; ++c) start[c][j] = 1.0;
+  }
+  const double k[3] = {0.1, 0.2, 0.3};
+  struct Result {
+    std::vector<double> dB[3], coverage;
+    kernels::Argmax best;
+  };
+  auto shoot = [&]() {
+    Result r;
+    kernels::ShotTargets t;
+    t.channels = 3;
+    for (int c = 0; c < 3; ++c) {
+      r.dB[c] = start[c];
+      t.unshot[c] = r.dB[c].data();
+      t.reflectance[c] = rho[c].data();
+    }
+    r.coverage.assign(n, 0.0);
+    t.coverage = r.coverage.data();
+    t.inverse_area = inverse_area.data();
+    t.area = area.data();
+    r.best = kernels::shoot(F.data(), 3, n, k, 2.0, t, true);
+    return r;
+  };
+  const size_t previous = kernels::set_parallel_shot_minimum(SIZE_MAX);
+  const Result serial = shoot();
+  kernels::set_parallel_shot_minimum(previous);
+  ASSERT_EQ(serial.best.index, kernels::kShotChunk + 5);
+  for (int threads : {1, 2, 4}) {
+    Result r;
+    on_threads(threads, [&] { r = shoot(); });
+    for (int c = 0; c < 3; ++c) EXPECT_TRUE(same_bits(serial.dB[c], r.dB[c])) << threads;
+    EXPECT_TRUE(same_bits(serial.coverage, r.coverage)) << threads;
+    EXPECT_EQ(r.best.index, serial.best.index) << threads;
+    EXPECT_EQ(r.best.value, serial.best.value) << threads;
   }
 }
 
