@@ -15,7 +15,9 @@
 // Every benchmark reports ns per form-factor row and bandwidth_fraction = baseline ns per row /
 // its ns per row, against the baseline of the order it really reads rows in (`order`: 0 = in
 // order, 1 = scattered). 1 = as fast as streaming the row; the target is >= 0.5. The matrix
-// (200 MB) is larger than any cache level that one core gets to itself. Run:
+// (200 MB) is larger than any cache level that one core gets to itself. raw_fraction is the same
+// ratio against the raw read of the same rows in the same order (raw_read: 256-bit loads into 8
+// sums where the CPU has AVX2), what one core can stream (issue 13 target 5: >= 0.5). Run:
 //   build/bench/bench_solvers --benchmark_counters_tabular=true
 // Quote the ratios from one run; absolute times on this machine are noisy.
 #include <benchmark/benchmark.h>

@@ -11,8 +11,9 @@
 namespace radlab {
 namespace {
 
-constexpr size_t kPanel = 128;  // columns per panel (the rank of each trailing update)
-constexpr size_t kTile = 256;   // trailing-update tiles: kTile x kTile entries, one product each
+constexpr size_t kPanel = 256;  // columns per panel (the rank of each trailing update)
+constexpr size_t kTile = 512;   // trailing-update tiles: kTile x kTile entries, one product each
+constexpr size_t kLeaf = 16;    // panel columns factorised one by one
 constexpr size_t kRowChunk = 1024;  // rows per task in the panel's column updates
 constexpr size_t kColChunk = 256;   // columns per task in the row swaps and the L11 solve
 
@@ -30,15 +31,16 @@ BlockedLu::BlockedLu(size_t n, const std::function<double(size_t, size_t)>& entr
   factorise();
 }
 
-void BlockedLu::factorise() {
+// Columns [c0, c1) of the panel [k0, k1), rows [c0, n): halves recursively (Toledo's recursive
+// LU, as LAPACK's dgetrf2), each half's update of the other a triangular solve and a product;
+// at kLeaf columns or fewer, column by column (LAPACK dgetf2). Row swaps are applied across the
+// whole panel as they are chosen.
+void BlockedLu::factor_panel(size_t k0, size_t k1, size_t c0, size_t c1) {
   const size_t n = n_;
   double* a = a_.data();
   auto at = [&](size_t i, size_t j) -> double& { return a[i + j * n]; };
-  for (size_t k0 = 0; k0 < n; k0 += kPanel) {
-    const size_t k1 = std::min(n, k0 + kPanel);  // panel columns [k0, k1)
-    // 1. The panel, column by column (LAPACK dgetf2): pivot, swap inside the panel, scale the
-    // column below the diagonal, update the panel's later columns.
-    for (size_t k = k0; k < k1; ++k) {
+  if (c1 - c0 <= kLeaf) {
+    for (size_t k = c0; k < c1; ++k) {
       size_t p = k;
       double best = std::abs(at(k, k));
       for (size_t i = k + 1; i < n; ++i)
@@ -57,13 +59,46 @@ void BlockedLu::factorise() {
                             const size_t lo = k + 1 + c * kRowChunk;
                             const size_t hi = std::min(n, lo + kRowChunk);
                             for (size_t i = lo; i < hi; ++i) at(i, k) /= d;
-                            for (size_t j = k + 1; j < k1; ++j) {
+                            for (size_t j = k + 1; j < c1; ++j) {
                               const double u = at(k, j);
                               for (size_t i = lo; i < hi; ++i) at(i, j) -= at(i, k) * u;
                             }
                           }
                         });
     }
+    return;
+  }
+  const size_t mid = c0 + (c1 - c0) / 2;
+  factor_panel(k0, k1, c0, mid);
+  const Stride stride{Eigen::Index(n)};
+  const auto left = Eigen::Index(mid - c0), right = Eigen::Index(c1 - mid);
+  const Block l11(&at(c0, c0), left, left, stride);
+  Block u12(&at(c0, mid), left, right, stride);
+  l11.triangularView<Eigen::UnitLower>().solveInPlace(u12);
+  // A22 -= L21 U12 over rows [mid, n), in fixed chunks of kTile rows.
+  const size_t chunks = (n - mid + kTile - 1) / kTile;
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, chunks, 1),
+                    [&](const tbb::blocked_range<size_t>& r) {
+                      for (size_t c = r.begin(); c != r.end(); ++c) {
+                        const size_t i0 = mid + c * kTile;
+                        const auto rows = Eigen::Index(std::min(kTile, n - i0));
+                        Block a22(&at(i0, mid), rows, right, stride);
+                        const Block l21(&at(i0, c0), rows, left, stride);
+                        const Block u(&at(c0, mid), left, right, stride);
+                        a22.noalias() -= l21 * u;
+                      }
+                    });
+  factor_panel(k0, k1, mid, c1);
+}
+
+void BlockedLu::factorise() {
+  const size_t n = n_;
+  double* a = a_.data();
+  auto at = [&](size_t i, size_t j) -> double& { return a[i + j * n]; };
+  for (size_t k0 = 0; k0 < n; k0 += kPanel) {
+    const size_t k1 = std::min(n, k0 + kPanel);  // panel columns [k0, k1)
+    // 1. The panel (recursively, so that most of its work is matrix products too).
+    factor_panel(k0, k1, k0, k1);
     // 2. The panel's row swaps in the columns left and right of it (each column independently),
     // and 3. U12 = L11^-1 A12 for the columns right of it: Eigen's blocked triangular solve, on
     // chunks of columns fixed by n (the same shapes whatever the thread count).

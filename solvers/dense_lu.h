@@ -3,7 +3,8 @@
 //
 // Method: right-looking blocked LU (Golub & Van Loan, Matrix Computations, 4th ed., §3.2.11,
 // Algorithm 3.2.2 with partial pivoting as in LAPACK's dgetrf). For each panel of kPanel columns:
-// factor the panel (rows below the diagonal split over threads for each column's update), swap
+// factor the panel (recursively in halves, as LAPACK's dgetrf2, down to 16 columns done one by
+// one with the rows below the diagonal split over threads), swap
 // the pivot rows in the rest of the matrix, solve L11 U12 = A12 (columns in fixed chunks over
 // threads), and update the trailing matrix A22 -= L21 U12 in fixed kTile x kTile tiles over threads
 // (each tile one Eigen matrix product). Every partition is fixed by n alone, never by the thread
@@ -12,8 +13,8 @@
 //
 // Cost: 2n^3/3 flops, n^2 doubles (the matrix is factorised in place). Singular pivots are left
 // as they are (no error here): the solution is then inf or NaN and the caller's certification
-// refuses it. Left out: recursive panel factorisation and a parallel triangular solve (O(n^2),
-// a fraction of a second at n = 9,000).
+// refuses it. Left out: a parallel triangular solve (O(n^2), a fraction of a second at
+// n = 9,000) and vector code of its own (the products are Eigen's, built for generic x86-64).
 #pragma once
 
 #include <cstddef>
@@ -34,6 +35,7 @@ class BlockedLu {
 
  private:
   void factorise();
+  void factor_panel(size_t k0, size_t k1, size_t c0, size_t c1);
 
   size_t n_ = 0;
   std::vector<double> a_;      // column-major: a_[i + j n] = A_ij, then L (unit) and U
