@@ -8,9 +8,9 @@
 //   - OnTheFlyRow: one raycast row of the Cornell box at --subdiv 20 (~8,000 elements), the row
 //     System::with_row computes on the fly (formfactor/parallel_row.h).
 //   - Shot: one RGB sorted shot's kernel (kernels::shoot with fused selection) on scattered
-//     float rows of n receivers (256 MB of rows), split over threads from
-//     kernels::kDefaultParallelShotMinimum receivers. (bench_solvers.cpp has the kernels against
-//     the raw read bandwidth.)
+//     float rows of n receivers (256 MB of rows), split over threads (the split is off by
+//     default; turned on here from 2 pieces of kernels::kShotChunk). (bench_solvers.cpp has the
+//     kernels against the raw read bandwidth.)
 //
 // Counters: the wall time per operation and cpu_* (every thread of the process): equal CPU on 1
 // and 2 threads means the split adds no work.
@@ -178,6 +178,8 @@ void BM_Shot(benchmark::State& state) {
   const int threads = int(state.range(1));
   tbb::global_control control(tbb::global_control::max_allowed_parallelism, size_t(threads));
   const ShotProblem& p = shot_problem(n);
+  // The split is off by default (kernels.h); on here from 2 pieces, on 1 thread and on 2.
+  const size_t previous = kernels::set_parallel_shot_minimum(2 * kernels::kShotChunk);
   const double k[3] = {1e-9, 1e-9, 1e-9};
   size_t r = 0;
   double seconds = 0.0;
@@ -188,6 +190,7 @@ void BM_Shot(benchmark::State& state) {
     benchmark::DoNotOptimize(kernels::shoot(F, 0, n, k, 0.0, p.targets, true));
     seconds += now() - start;
   }
+  kernels::set_parallel_shot_minimum(previous);
   const double per_row = seconds / double(state.iterations());
   state.counters["n"] = double(n);
   state.counters["threads"] = threads;

@@ -175,7 +175,6 @@ TEST(ParallelRow, OnTheFlySolverRunIsTheSameBitsOnOneTwoFourThreads) {
 // planted twice, so the tie rule (lowest index) is tested across the pieces.
 TEST(ParallelShot, SameBitsAsTheUnsplitShotOnOneTwoFourThreads) {
   const size_t n = 5 * kernels::kShotChunk + 123;
-  ASSERT_GE(n, kernels::kDefaultParallelShotMinimum);
   Pcg32 rng(9);
   std::vector<float> F(n);
   std::vector<double> inverse_area(n), area(n), start[3], rho[3];
@@ -222,7 +221,7 @@ TEST(ParallelShot, SameBitsAsTheUnsplitShotOnOneTwoFourThreads) {
   };
   const size_t previous = kernels::set_parallel_shot_minimum(SIZE_MAX);
   const Result serial = shoot();
-  kernels::set_parallel_shot_minimum(previous);
+  kernels::set_parallel_shot_minimum(2 * kernels::kShotChunk);  // split this shot
   ASSERT_EQ(serial.best.index, kernels::kShotChunk + 5);
   for (int threads : {1, 2, 4}) {
     Result r;
@@ -232,6 +231,7 @@ TEST(ParallelShot, SameBitsAsTheUnsplitShotOnOneTwoFourThreads) {
     EXPECT_EQ(r.best.index, serial.best.index) << threads;
     EXPECT_EQ(r.best.value, serial.best.value) << threads;
   }
+  kernels::set_parallel_shot_minimum(previous);
 }
 
 // I - rho F for a random F with rows summing to ~0.9 (the radiosity system), or a random
