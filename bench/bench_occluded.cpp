@@ -8,7 +8,8 @@
 // occluded) and, interleaved in the same iterations, the same pairs in the room without the box
 // (unoccluded_pairs_per_s: the unoccluded adaptive path of `exact`), so `vs_unoccluded` is the
 // cost of an occluded pair in unoccluded pairs, immune to the machine's drift. (View3D cannot
-// run in-bench; its times are in docs/formfactors.md.)
+// run in-bench; its times are in docs/formfactors.md.) BM_SymmetricBuildRoom: the whole matrix
+// at 1e-2, CPU seconds of the process, every ordered pair against each unordered pair once.
 //
 // Run: build/bench/bench_occluded --benchmark_counters_tabular=true
 #include <benchmark/benchmark.h>
@@ -17,6 +18,8 @@
 
 #include "bench/bench_clock.h"
 #include "formfactor/exact.h"
+#include "formfactor/matrix.h"
+#include "formfactor/symmetric_build.h"
 #include "scene/mesh.h"
 #include "scene/validate.h"
 
@@ -97,6 +100,35 @@ void BM_ClipFloorToCeiling(benchmark::State& state) {
   state.counters["vs_unoccluded"] = clip_seconds / plain_seconds;
 }
 BENCHMARK(BM_ClipFloorToCeiling)->Arg(2)->Arg(4)->Unit(benchmark::kMillisecond);
+
+double process_seconds() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
+}
+
+// The whole 480 x 480 matrix in clip mode at tolerance 1e-2 (the setting that meets the 3e-5
+// target), all threads: CPU seconds of the process for build_matrix (every ordered pair) and
+// build_matrix_symmetric (each unordered pair once), interleaved.
+void BM_SymmetricBuildRoom(benchmark::State& state) {
+  const Room& boxed = room(true);
+  const ExactFormFactors clip(boxed.scene, boxed.mesh, options(1e-2, true));
+  double one_way = 0.0, symmetric = 0.0;
+  for (auto _ : state) {
+    BuildReport a, b;
+    double t = process_seconds();
+    benchmark::DoNotOptimize(build_matrix(clip, boxed.mesh.size(), Precision::kDouble, a));
+    one_way += process_seconds() - t;
+    t = process_seconds();
+    benchmark::DoNotOptimize(build_matrix_symmetric(clip, boxed.mesh, Precision::kDouble, b));
+    symmetric += process_seconds() - t;
+  }
+  const double runs = double(state.iterations());
+  state.counters["one_way_cpu_s"] = one_way / runs;
+  state.counters["symmetric_cpu_s"] = symmetric / runs;
+  state.counters["symmetric_vs_one_way"] = symmetric / one_way;
+}
+BENCHMARK(BM_SymmetricBuildRoom)->Iterations(1)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace radlab

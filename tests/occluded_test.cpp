@@ -5,12 +5,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <vector>
 
 #include "core/param_bag.h"
 #include "formfactor/exact.h"
 #include "formfactor/point_polygon.h"
+#include "formfactor/symmetric_build.h"
 #include "formfactor/visible_polygon.h"
 #include "scene/mesh.h"
 #include "tests/test_support.h"
@@ -189,6 +191,38 @@ TEST(ExactClip, ConvergesAsToleranceFallsAndIsReciprocal) {
     // Equal areas: F_01 = F_10, each within the budget of the exact value.
     EXPECT_NEAR(method.pair(1, 0, cost), f, 2 * tolerance * tight) << tolerance;
   }
+}
+
+// The symmetric builder: one integration per unordered pair, the other entry by reciprocity.
+// Against two one-way integrations (build_matrix), every entry within the tolerance of the
+// pair (each side is within 1e-6 relative of the exact value, so they differ by < 2e-6);
+// reciprocity to rounding (one multiplication and one division: a few ulps).
+TEST(SymmetricBuild, EqualsTwoOneWayIntegrationsAndIsReciprocal) {
+  const Scene scene = scene_of({rect(0, 1, 0, 1, 0.0, true), rect(0, 1, 0, 1, 1.0, false),
+                                rect(0.3, 0.9, 0.2, 0.7, 0.45, true), rect(0, 1, 0, 1, 0.3, false)},
+                               0.5, 1.0);
+  // Floor, ceiling, a plate and a lower square, each 2 x 2 (the plate's elements are smaller).
+  Mesh mesh = build_mesh(scene, {2, 0.0});
+  const ExactFormFactors method = clip_method(scene, mesh, 1e-6);
+  BuildReport one_way, symmetric;
+  const FormFactorMatrix full = build_matrix(method, mesh.size(), Precision::kDouble, one_way);
+  const FormFactorMatrix half = build_matrix_symmetric(method, mesh, Precision::kDouble, symmetric);
+  size_t nonzero = 0;
+  for (size_t i = 0; i < mesh.size(); ++i)
+    for (size_t j = 0; j < mesh.size(); ++j) {
+      const double f = full.at(i, j), g = half.at(i, j);
+      EXPECT_NEAR(g, f, 2e-6 * std::max(f, g) + 1e-15) << i << " " << j;
+      EXPECT_NEAR(mesh.area[i] * g, mesh.area[j] * half.at(j, i), 1e-15 * mesh.area[i] * g + 1e-300)
+          << i << " " << j;
+      nonzero += f > 0.0 ? 1 : 0;
+    }
+  EXPECT_GT(nonzero, 20u);
+  // Half the integrals: each unordered pair once.
+  EXPECT_LT(double(symmetric.cost.kernel_evaluations),
+            0.6 * double(one_way.cost.kernel_evaluations));
+  std::printf("evaluations: one-way %llu, symmetric %llu\n",
+              static_cast<unsigned long long>(one_way.cost.kernel_evaluations),
+              static_cast<unsigned long long>(symmetric.cost.kernel_evaluations));
 }
 
 }  // namespace
