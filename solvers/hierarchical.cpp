@@ -31,10 +31,13 @@
 
 #include <chrono>
 #include <cmath>
+#include <fstream>
 #include <memory>
+#include <string>
 
 #include "core/error.h"
 #include "solvers/hierarchical_hierarchy.h"
+#include "solvers/hierarchical_rows.h"
 #include "solvers/solver_factories.h"
 
 namespace radlab {
@@ -49,6 +52,7 @@ struct HierarchicalOptions {
   long long levels = 1;
   long long gathers = 4;
   std::string order = "jacobi";
+  std::string rows = "leaf";
   long long seed = 1;
 
   static HierarchicalOptions from(ParamBag& bag) {
@@ -59,6 +63,7 @@ struct HierarchicalOptions {
     o.levels = bag.get_int("levels", o.levels);
     o.gathers = bag.get_int("gathers", o.gathers);
     o.order = bag.get_choice("order", o.order, {"jacobi", "gauss-seidel"});
+    o.rows = bag.get_choice("rows", o.rows, {"leaf", "links"});
     o.seed = bag.get_int("seed", o.seed);
     o.validate();
     return o;
@@ -82,10 +87,21 @@ struct HierarchicalOptions {
   }
 };
 
+// The process's peak resident set so far (Linux VmHWM), in bytes; 0 where /proc is absent. The
+// whole process's, not the solver's alone: the run's mesh and any matrix count too.
+double peak_rss_bytes() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line))
+    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) * 1024.0;
+  return 0.0;
+}
+
 struct PassRecord {
-  double feps = 0.0, seconds = 0.0;
+  double feps = 0.0, seconds = 0.0, peak_rss = 0.0;
   size_t nodes = 0, leaves = 0, links = 0, memory = 0;
   RefineStats stats;
+  RowStats rows;
 };
 
 class HierarchicalSolver final : public Solver {
@@ -207,6 +223,15 @@ class HierarchicalSolver final : public Solver {
       add(pre + "visibility_tests", double(p.stats.visibility_tests));
       add(pre + "rays", double(p.stats.rays));
       add(pre + "memory_bytes", double(p.memory));
+      add(pre + "peak_rss_bytes", p.peak_rss);
+      if (o_.rows == "leaf") {
+        add(pre + "row_link_sum_max", p.rows.max_link_sum);
+        add(pre + "row_link_sum_min", p.rows.min_link_sum);
+        add(pre + "row_leaves_above_one", double(p.rows.leaves_above_one));
+        add(pre + "row_scale_change_max", p.rows.max_change);
+        add(pre + "row_sum_max", p.rows.max_row);
+        add(pre + "row_evaluations", double(p.rows.evaluations));
+      }
     }
     return s;
   }
@@ -276,16 +301,20 @@ class HierarchicalSolver final : public Solver {
     Hierarchy tree =
         build_hierarchy(charts_, links_, &tree_, chart_emission_, chart_reflectance_, channels_);
     tree_ = std::move(tree);
-    system_->charge_pair_evaluations(stats.pair_evaluations);
+    RowStats rows;
+    if (o_.rows == "leaf") rows = normalise_rows(tree_, charts_);
+    system_->charge_pair_evaluations(stats.pair_evaluations + rows.evaluations);
     system_->charge_rays(stats.rays);
     PassRecord record;
     record.feps = criterion.feps;
     record.stats = stats;
+    record.rows = rows;
     record.nodes = tree_.size();
     record.leaves = tree_.leaves;
     record.links = links_.size();
     record.memory = tree_.memory_bytes() + links_.capacity() * sizeof(LinkRecord);
     record.seconds = seconds_since(t0);
+    record.peak_rss = peak_rss_bytes();
     passes_.push_back(record);
   }
 
@@ -322,6 +351,9 @@ SolverInfo hierarchical_solver_info() {
            {"levels", "1", "multigrid levels: feps*4^(levels-1) ... feps (bf needs >= 2)"},
            {"gathers", "4", "gather passes at each multigrid level but the last"},
            {"order", "jacobi", "gather order: jacobi or gauss-seidel"},
+           {"rows", "leaf",
+            "leaf: each leaf's gathered light scaled to its own 2x2-rule row sum (<= 1); links: "
+            "the paper's unnormalised sum (diverges at rho near 1)"},
            {"seed", "1", "seed of the visibility rays' jitter"}},
           [](ParamBag& bag) -> std::unique_ptr<Solver> {
             return std::make_unique<HierarchicalSolver>(HierarchicalOptions::from(bag));

@@ -134,6 +134,7 @@ void Refiner::refine(const Node& p, const Node& q, Known known, std::vector<Link
   link.estimate_qp = float(est_qp);
   link.cls = cut ? LinkClass::kCut : partial ? LinkClass::kPartial : LinkClass::kVisible;
   link.partial = partial;
+  link.free_rays = uint8_t(free);
   stats.pair_evaluations += 2;
   ++stats.links_created;
   out.push_back(link);

@@ -44,7 +44,8 @@ struct LinkRecord {
   double fpq = 0.0, fqp = 0.0;             // transfer factors, visibility included
   float estimate_pq = 0, estimate_qp = 0;  // unoccluded estimates (the refinement oracle)
   LinkClass cls = LinkClass::kVisible;
-  bool partial = false;  // some rays blocked (a cut pair can be partial too)
+  bool partial = false;    // some rays blocked (a cut pair can be partial too)
+  uint8_t free_rays = 16;  // unblocked rays of kVisibilityRays: V = free_rays / 16
 };
 
 // Counters of the paper's Table 1.
