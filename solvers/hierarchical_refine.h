@@ -55,6 +55,7 @@ struct RefineStats {
   uint64_t visibility_tests = 0;   // pairs that cast rays
   uint64_t inherited_visible = 0;  // pairs that took V = 1 from a fully visible ancestor pair
   uint64_t occluded = 0;           // pairs found totally occluded (neither linked nor refined)
+  uint64_t degenerate = 0;         // pairs with a node of zero area (neither linked nor refined)
   uint64_t rays = 0;
   uint64_t pair_evaluations = 0;
   uint64_t links_created = 0;

@@ -16,7 +16,7 @@ namespace {
 
 struct LeafRow {
   double link_sum = 0.0, row = 0.0;
-  uint64_t evaluations = 0;
+  uint64_t evaluations = 0, nonfinite = 0;
 };
 
 // S_L and T_L of leaf i (geometry of every node in `geom`).
@@ -49,7 +49,16 @@ LeafRow leaf_row(const Hierarchy& h, const std::vector<Chart>& charts,
                                     std::span<const Vec3>(g.x, size_t(g.corners)),
                                     charts[h.key[s].chart].normal, value, scratch);
       const double v = double(h.free_rays[k]) / kVisibilityRays;
-      r.row += v * (w[0] * value[0] + w[1] * value[1] + w[2] * value[2] + w[3] * value[3]);
+      double sum = 0.0;
+      for (int d = 0; d < 4; ++d) {
+        // A point on the source's own plane inside it (coincident back-to-back input) has no
+        // defined value; it sees none of the source.
+        if (std::isfinite(value[d]))
+          sum += w[d] * value[d];
+        else
+          ++r.nonfinite;
+      }
+      r.row += v * sum;
       ++r.evaluations;
     }
   }
@@ -83,7 +92,8 @@ RowStats normalise_rows(Hierarchy& h, const std::vector<Chart>& charts) {
     if (!h.is_leaf(i)) continue;
     const LeafRow& r = rows[i];
     stats.evaluations += r.evaluations;
-    if (!(r.link_sum > 0.0)) continue;
+    stats.nonfinite += r.nonfinite;
+    if (!(r.link_sum > 0.0 && std::isfinite(r.link_sum))) continue;
     const double row = std::min(r.row, 1.0);
     h.row_scale[i] = row / r.link_sum;
     stats.max_link_sum = std::max(stats.max_link_sum, r.link_sum);

@@ -41,6 +41,7 @@ struct RowStats {
   size_t leaves_above_one = 0;  // leaves whose S_L exceeded 1
   double max_change = 0.0;      // largest |row_scale - 1|
   uint64_t evaluations = 0;     // (leaf, ancestor link) pairs evaluated by the 2 x 2 rule
+  uint64_t nonfinite = 0;       // point values without a defined result (taken as 0)
 };
 
 // Sets h.row_scale for every leaf (1 for interior nodes and leaves that gather nothing).

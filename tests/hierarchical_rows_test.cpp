@@ -17,6 +17,7 @@
 #include "solvers/hierarchical_refine.h"
 #include "solvers/reference.h"
 #include "solvers/registry.h"
+#include "tests/test_support.h"
 
 namespace radlab {
 namespace {
@@ -89,6 +90,27 @@ TEST(HierarchicalRows, NoRowAboveOneWithBlockers) {
               b.stats.max_change);
   for (double row : effective_rows(b.h)) EXPECT_LE(row, 1.0 + 1e-12);
   EXPECT_GT(b.stats.max_link_sum, 1.0);
+}
+
+TEST(HierarchicalDegenerate, ZeroAreaFanTriangleMakesNoLinkAndNoNaN) {
+  // A pentagon whose first three corners are collinear: the mesher's fan from corner 0 makes a
+  // chart of zero area, whose centroid and normal are undefined. It must make no link (it has
+  // no area to exchange light through) and leave every factor and row finite; before the guard
+  // its NaN centre gave NaN link factors (hosp.mgf at feps 0.04: 1,105 of them, and a solve
+  // that stopped with "non-finite radiosity").
+  const std::vector<Vec3> pentagon = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {2, 1, 0}, {0, 1, 0}};
+  const std::vector<Vec3> roof = {{0, 0, 1}, {0, 1, 1}, {2, 1, 1}, {2, 0, 1}};  // facing down
+  const Scene scene = testing::scene_of({pentagon, roof});
+  const Built b = refine_scene(scene, 0.01, 1e-3);
+  ASSERT_EQ(b.charts.size(), 4u);
+  EXPECT_EQ(b.charts[0].area, 0.0);
+  ASSERT_FALSE(b.links.empty());
+  for (const LinkRecord& l : b.links) {
+    EXPECT_TRUE(std::isfinite(l.fpq) && std::isfinite(l.fqp));
+    EXPECT_NE(l.p.chart, 0u);
+    EXPECT_NE(l.q.chart, 0u);
+  }
+  for (double row : effective_rows(b.h)) EXPECT_TRUE(std::isfinite(row));
 }
 
 struct Setup {
