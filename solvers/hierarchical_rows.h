@@ -5,11 +5,11 @@
 // factor averaged over that node (a 2 x 2 rule over the node, hierarchical_refine.h), not over
 // the leaf. The link sum S_L = sum over those links of the factor is therefore not the leaf's
 // own row sum: even with exact factors it scatters around it (by about the factors' variation
-// over the receiving nodes), while its area-weighted mean is conserved. The gather operator is
-// self-adjoint in the area inner product, so its spectral radius is at least the area-weighted
-// mean of S_L; any spread puts some S_L above 1 and the largest eigenvalue above the mean, and on
-// a closed box (mean 1) rho * lambda exceeds 1 for rho close to 1: the Jacobi passes diverge
-// (docs/stability.md measured it at rho >= 0.99).
+// over the receiving nodes), while its area-weighted mean is conserved. With reciprocal factors
+// the gather operator is self-adjoint in the area inner product, so its spectral radius is at
+// least the area-weighted mean of S_L (the Rayleigh quotient of a constant), strictly more when
+// S_L spreads: on a closed box (mean 1) lambda > 1, so rho * lambda > 1 once rho > 1 / lambda
+// and the Jacobi passes diverge (docs/stability.md measured it at rho >= 0.99).
 //
 // What: for every leaf L, T_L = sum over the same links of V_k times the form factor from L to
 // the link's source by the 2 x 2 rule over L itself (the four children's centres, area
