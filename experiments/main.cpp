@@ -40,6 +40,8 @@ int main(int argc, char** argv) {
         throw CLI::Success();
       },
       "print radlab's version, git revision and dependency versions, and exit");
+  int threads = 0;
+  radlab::cli::add_threads_option(app, threads);
   // These options may also follow the subcommand.
   app.fallthrough();
   radlab::cli::add_scenes_command(app);
@@ -57,6 +59,7 @@ int main(int argc, char** argv) {
     // Before any subcommand runs: its callback reads the solver table.
     radlab::load_plugins_from_environment();
     for (const std::string& plugin : plugins) radlab::load_plugin(plugin);
+    radlab::cli::apply_threads(threads);
   });
   try {
     app.parse(argc, argv);

@@ -1,5 +1,6 @@
 #include "experiments/outputs.h"
 
+#include <tbb/global_control.h>
 #include <tbb/info.h>
 
 #include <cstdio>
@@ -32,7 +33,8 @@ void write_build_info(JsonWriter& json) {
   json.field("source_hash", formfactor_code_version());
   json.field("compiler", std::string("g++ ") + __VERSION__);
   json.field("build_type", RADLAB_BUILD_TYPE);
-  json.field("threads", tbb::info::default_concurrency());
+  json.field("threads",
+             int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)));
   json.end_object();
 }
 
