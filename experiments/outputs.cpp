@@ -141,7 +141,9 @@ void write_run_result(JsonWriter& json, const Budget& budget, const RunResult& r
   json.field("p_max", r.final_errors.p_max);
   json.field("rms_rel_display", r.final_display_errors.rms_rel);
   json.field("bound_relative", r.final_bound_relative);
+  json.field("bound_relative_reflected", r.final_bound_relative_reflected);
   if (r.tolerance_asked) {
+    json.field("tolerance_of", std::string(r.tolerance_of_reflected ? "reflected" : "max-b"));
     json.field("tolerance_reached", r.tolerance_reached);
     if (!r.tolerance_reached) json.field("tolerance_message", r.tolerance_message);
   }
