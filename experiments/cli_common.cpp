@@ -16,7 +16,7 @@ namespace radlab::cli {
 void add_scene_options(CLI::App& command, SceneOptions& o) {
   command
       .add_option("scene", o.scene,
-                  "builtin:NAME[:key=value,...] (see `radlab scenes`), or an .obj file")
+                  "builtin:NAME[:key=value,...] (see `radlab scenes`), or an .obj or .mgf file")
       ->required();
   add_mesh_options(command, o);
 }

@@ -344,12 +344,19 @@ ExperimentSpec read_experiment(const std::string& path) {
   return spec;
 }
 
-namespace {
-
 std::string scene_label(const std::string& scene) {
   if (text::starts_with(scene, "builtin:")) return scene.substr(8);
   return std::filesystem::path(scene).stem().string();
 }
+
+std::string make_run_id(const std::string& solver, const std::string& problem_label,
+                        const std::map<std::string, std::string>& parameters) {
+  std::string id = solver + "/" + problem_label;
+  for (const auto& [k, v] : parameters) id += "/" + k + ":" + v;
+  return id;
+}
+
+namespace {
 
 // All combinations of the parameter axes, keys in order.
 std::vector<std::map<std::string, std::string>> combinations(
@@ -417,8 +424,7 @@ SweepPlan plan_sweep(const ExperimentSpec& spec) {
             run.problem = problem_index;
             run.solver = solver.name;
             run.parameters = parameters;
-            run.run_id = solver.name + "/" + problem.label;
-            for (const auto& [k, v] : parameters) run.run_id += "/" + k + ":" + v;
+            run.run_id = make_run_id(solver.name, problem.label, parameters);
             plan.runs.push_back(std::move(run));
           }
       }

@@ -7,6 +7,7 @@
 
 #include "core/csv.h"
 #include "core/text.h"
+#include "core/version.h"
 #include "experiments/two_level_problem.h"
 #include "formfactor/matrix_cache.h"
 #include "solvers/registry.h"
@@ -28,7 +29,7 @@ void write_radiosity_csv(const std::string& path, const Mesh& mesh, const Radios
 
 void write_build_info(JsonWriter& json) {
   json.key("build").begin_object();
-  json.field("radlab_version", "0.1.0");
+  json.field("radlab_version", kVersion);
   json.field("git_sha", build_git_sha());
   json.field("source_hash", formfactor_code_version());
   json.field("compiler", std::string("g++ ") + __VERSION__);

@@ -375,17 +375,17 @@ std::vector<uint32_t> adaptive_blocks(const Solver& solver) {
 }
 
 SolverInfo adaptive_shooting_solver_info() {
-  return {
-      "adaptive-shooting",
-      "sorted patch shooting to elements split where vertex radiosities jump; needs patches",
-      "Cohen et al. 1988 §3.4, §4 (adaptive subdivision)",
-      "one patch row (pair evaluations: one per current element)",
-      {{"threshold", "0.5", "split where vertex radiosities differ by more than this x mean B-E"},
-       {"levels", "1", "initial splits of every patch"},
-       {"ambient", "false", "add Cohen's display-only ambient term to display()"}},
-      [](ParamBag& bag) -> std::unique_ptr<Solver> {
-        return std::make_unique<AdaptiveShootingSolver>(AdaptiveOptions::from(bag));
-      }};
+  return {"adaptive-shooting",
+          "sorted patch shooting to elements split where vertex radiosities jump; needs patches",
+          "Cohen et al. 1988 §3.4, §4 (adaptive subdivision)",
+          "one patch row (pair evaluations: one per current element)",
+          {{"threshold", "", "split where vertex radiosities differ by more than this x mean B-E"},
+           {"levels", "", "initial splits of every patch"},
+           {"ambient", "", "add Cohen's display-only ambient term to display()"}},
+          [](ParamBag& bag) -> std::unique_ptr<Solver> {
+            return std::make_unique<AdaptiveShootingSolver>(AdaptiveOptions::from(bag));
+          },
+          SolverKind::kShooting};
 }
 
 }  // namespace radlab

@@ -163,7 +163,9 @@ TEST(RaycastNearPairs, ParallelSquaresAMillimetreApartMeetTheTolerance) {
 TEST(RenderParkRowSums, CubeWithinTheStatedError) {
   const char* shared = std::getenv("RADLAB_SHARED_SCENES");
   const std::string path = std::string(shared ? shared : "") + "/renderpark/cube.mgf";
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " not found";
+  if (!std::filesystem::exists(path)) {
+    RADLAB_SHARED_MISSING(path << " not found");
+  }
   const LoadedScene loaded = load_scene(path, false);
   const Mesh mesh = build_mesh(loaded.scene, {});
   RaycastFormFactors ff(loaded.scene, mesh, {});
