@@ -83,7 +83,11 @@ void write_problem_info(JsonWriter& json, const Problem& p) {
 
   std::vector<std::string> left_out = p.method->left_out();
   if (p.scene().is_grey()) left_out.push_back("colour: one channel (every rho and E is grey)");
-  if (!p.has_matrix()) left_out.push_back("dense matrix: none (rows streamed, no reference)");
+  if (!p.has_matrix())
+    left_out.push_back(p.reference && p.reference->kind == "certified"
+                           ? "dense matrix: none (rows streamed; the cached reference re-certified "
+                             "against them; the solver's own error is not certified at checkpoints)"
+                           : "dense matrix: none (rows streamed, no reference)");
   json.field("left_out", left_out);
 
   if (p.reference) {
