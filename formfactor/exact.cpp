@@ -122,4 +122,10 @@ void ExactFormFactors::row(size_t i, std::span<double> out, RowCost& cost) const
   for (size_t j = 0; j < out.size(); ++j) out[j] = pair(i, j, cost);
 }
 
+bool ExactFormFactors::row_part(size_t i, size_t lo, size_t hi, std::span<double> out,
+                                RowCost& cost) const {
+  for (size_t j = lo; j < hi; ++j) out[j] = pair(i, j, cost);
+  return true;
+}
+
 }  // namespace radlab

@@ -54,6 +54,8 @@ class ExactFormFactors final : public FormFactorMethod {
   std::string parameters() const override { return options_.canonical(); }
   std::vector<std::string> left_out() const override;
   void row(size_t i, std::span<double> out, RowCost& cost) const override;
+  bool row_part(size_t i, size_t lo, size_t hi, std::span<double> out,
+                RowCost& cost) const override;
 
   double pair(size_t i, size_t j, RowCost& cost) const;
 

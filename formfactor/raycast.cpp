@@ -199,4 +199,10 @@ void RaycastFormFactors::row(size_t i, std::span<double> out, RowCost& cost) con
   for (size_t j = 0; j < out.size(); ++j) out[j] = pair(i, j, cost);
 }
 
+bool RaycastFormFactors::row_part(size_t i, size_t lo, size_t hi, std::span<double> out,
+                                  RowCost& cost) const {
+  for (size_t j = lo; j < hi; ++j) out[j] = pair(i, j, cost);
+  return true;
+}
+
 }  // namespace radlab
