@@ -108,6 +108,10 @@ void run(const SolveOptions& o, int argc, char** argv) {
     spec.row_mode = RowMode::kOnTheFly;
   }
   auto problem = prepare_problem(spec);
+  if (o.tol_given && !problem->has_matrix())
+    throw UsageError(
+        "--tol needs the certified bound of the solver's own error, taken with the dense matrix; "
+        "rows on the fly with a cached reference have none (use --ff-mode cached)");
   if (o.reference == kHierarchicalFineReference) {
     log::info("reference: NOT certified: a finer hierarchical run (feps " +
               text::format_double(o.reference_feps) + ", aeps " +
@@ -134,7 +138,11 @@ void run(const SolveOptions& o, int argc, char** argv) {
     std::printf("error        rms_rel %.6g, p_mean %.6g, p_max %.6g (display: rms_rel %.6g)\n",
                 result.final_errors.rms_rel, result.final_errors.p_mean, result.final_errors.p_max,
                 result.final_display_errors.rms_rel);
-    if (problem->reference->kind == "certified") {
+    if (problem->reference->kind == "certified" && !problem->has_matrix()) {
+      std::printf(
+          "certified    reference only (rows on the fly: no matrix to take the solver's "
+          "residual with, so no bound on its error)\n");
+    } else if (problem->reference->kind == "certified") {
       std::printf("certified    ||B - B*||_inf / max B* <= %.6g\n", result.final_bound_relative);
       // Said beside it whenever the two scales differ by more than 10%: max B* is an emitter's
       // radiosity, and a bound that is small against it can be large against the reflected light.

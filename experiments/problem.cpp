@@ -1,5 +1,8 @@
 #include "experiments/problem.h"
 
+#include <algorithm>
+#include <filesystem>
+
 #include "core/error.h"
 #include "core/limits.h"
 #include "core/log.h"
@@ -34,7 +37,7 @@ void check_row_sums(Problem& problem, bool used) {
 // lamp). Symmetrised rows above the limit only warn (check_row_sums): symmetrising an aliased
 // hemicube moves form factor between rows (docs/formfactors.md).
 // With --ff-set unphysical=accept the first test only warns, and the certificate says so.
-void refuse_unphysical(const Problem& problem, bool accept_row_sums) {
+void refuse_unphysical(const Problem& problem, bool accept_row_sums, double ratio) {
   if (!problem.row_sums.ok()) {
     const std::string what = "the form factors are unphysical, " +
                              problem.row_sums.report(problem.scene(), problem.mesh) +
@@ -44,7 +47,6 @@ void refuse_unphysical(const Problem& problem, bool accept_row_sums) {
                            "; --ff-set unphysical=accept solves it anyway, labelled as such");
     log::warning("solving anyway (unphysical=accept): " + what);
   }
-  const double ratio = emitted_power_ratio(problem.matrix, problem.scene(), problem.mesh);
   char buffer[300];
   std::snprintf(buffer, sizeof buffer,
                 "the matrix lets the elements gather %.3g times the power the emitters' rows send "
@@ -57,15 +59,15 @@ void refuse_unphysical(const Problem& problem, bool accept_row_sums) {
   if (std::abs(ratio - 1.0) > 0.1) log::warning(std::string("form factors: ") + buffer);
 }
 
-// The float storage of a double matrix: every entry rounded to nearest.
-FormFactorMatrix round_to_float(const FormFactorMatrix& F) {
-  FormFactorMatrix out(F.size(), Precision::kFloat);
-  for (size_t i = 0; i < F.size(); ++i) {
-    const double* row = F.row_f64(i);
-    float* dst = out.row_f32(i);
-    for (size_t j = 0; j < F.size(); ++j) dst[j] = float(row[j]);
-  }
-  return out;
+// "stored sparse, 123.4 MB (45.6% of dense)": what a matrix holds in memory (formfactor/matrix.h).
+void log_storage(const std::string& what, const FormFactorMatrix& m) {
+  const double dense = double(m.size()) * double(m.size()) *
+                       (m.precision() == Precision::kFloat ? sizeof(float) : sizeof(double));
+  char buffer[200];
+  std::snprintf(buffer, sizeof buffer, "%s: stored %s, %.1f MB (%.1f%% of dense)", what.c_str(),
+                m.sparse() ? "sparse" : "dense", double(m.bytes()) / 1e6,
+                dense > 0 ? 100.0 * double(m.bytes()) / dense : 0.0);
+  log::info(buffer);
 }
 
 }  // namespace
@@ -114,14 +116,6 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
   }
 
   const size_t n = problem->mesh.size();
-  if (spec.row_mode == RowMode::kCached || spec.need_reference) {
-    // Estimated before the n^2 allocation and the n^2 pair evaluations.
-    const double pairs = double(n) * double(n);
-    const std::string what = problem->scene().name + ": the dense form-factor matrix of " +
-                             std::to_string(n) + " elements";
-    check_limit("memory_gb", pairs * (precision == Precision::kDouble ? 8.0 : 4.0), what);
-    check_limit("pairs", pairs, what + " (" + spec.ff_method + ")");
-  }
   // The dense matrix is built when rows are cached or the reference needs it; a streaming run
   // without a reference never holds n^2 numbers.
   std::filesystem::path cache_dir;
@@ -137,7 +131,38 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
                            Precision::kDouble);
     problem->matrix_cache_file = cache->path(key).string();
   }
-  if (spec.row_mode == RowMode::kCached || spec.need_reference) {
+  // Rows on the fly with a reference in the cache: the reference is certified with the rows the
+  // method computes, one pass in O(n) memory, and the dense matrix is never built.
+  spec.patches.validate();
+  const bool two_level = spec.patches.two_level();
+  std::optional<StreamedCheck> streamed;
+  if (spec.need_reference && spec.row_mode == RowMode::kOnTheFly && cache && !two_level) {
+    System on_the_fly(problem->scene(), problem->mesh, *problem->method);
+    ReferenceCache references(cache_dir);
+    const ReferenceCacheKey reference_key = reference_cache_key(key, false, on_the_fly, {});
+    if (std::filesystem::exists(references.path(reference_key))) {
+      Progress progress(
+          "cached reference, certified with rows on the fly (" + std::to_string(n) + " rows)", "",
+          0);
+      StreamedCheck check;
+      problem->reference = references.load(reference_key, on_the_fly, *problem->method, {}, check);
+      progress.finish();
+      if (problem->reference) {
+        streamed = std::move(check);
+        problem->reference_cache_file = references.path(reference_key).string();
+      }
+    }
+  }
+  const bool dense = spec.row_mode == RowMode::kCached || (spec.need_reference && !streamed);
+  if (dense) {
+    // Estimated before the n^2 allocation and the n^2 pair evaluations.
+    const double pairs = double(n) * double(n);
+    const std::string what = problem->scene().name + ": the dense form-factor matrix of " +
+                             std::to_string(n) + " elements";
+    check_limit("memory_gb", pairs * (precision == Precision::kDouble ? 8.0 : 4.0), what);
+    check_limit("pairs", pairs, what + " (" + spec.ff_method + ")");
+  }
+  if (dense) {
     std::optional<FormFactorMatrix> cached =
         cache ? cache->load(key, &problem->build) : std::nullopt;
     // A miss: hold the key's lock while building and storing, so that concurrent processes
@@ -153,8 +178,11 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
     } else {
       Progress progress("form factors (" + spec.ff_method + ", " + std::to_string(n) + " rows)",
                         "rows", double(n));
-      problem->matrix = build_matrix(*problem->method, n, Precision::kDouble, problem->build,
-                                     [&](size_t done, size_t) { progress.update(double(done)); });
+      // Sparse: pairs culled or fully occluded cost nothing, and no row more than its dense form
+      // (formfactor/matrix.h); the solvers read the same numbers either way.
+      problem->matrix =
+          build_matrix(*problem->method, n, Precision::kDouble, Layout::kSparse, problem->build,
+                       [&](size_t done, size_t) { progress.update(double(done)); });
       progress.finish(std::to_string(problem->build.cost.rays) + " visibility rays");
       log::info("form factors: " + problem->build.summary());
     }
@@ -166,6 +194,7 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
       throw NumericalError("form factors '" + spec.ff_method +
                            "': " + problem->raw_diagnostics.summary());
     check_row_sums(*problem, false);
+    log_storage("form factors (double)", problem->matrix);
     if (cache && !problem->build.cached && cache->store(key, problem->matrix, problem->build))
       problem->build.cache_file = cache->path(key).string();
     building.reset();
@@ -176,11 +205,12 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
     // Float storage: the solvers read the rounding of the double matrix, and the reference and
     // bounds stay on the double one (the system the method computed; docs/reference.md).
     if (precision == Precision::kFloat && spec.row_mode == RowMode::kCached) {
-      FormFactorMatrix rounded = round_to_float(problem->matrix);
+      FormFactorMatrix rounded = convert_precision(problem->matrix, Precision::kFloat);
       // Without a reference nothing is certified: the double matrix is not kept.
       if (spec.need_reference) problem->computed = std::move(problem->matrix);
       problem->matrix = std::move(rounded);
     }
+    if (problem->computed.size() > 0) log_storage("form factors (float)", problem->matrix);
     if (symmetrise_ff || precision == Precision::kFloat) {
       problem->diagnostics = diagnose(problem->matrix, problem->mesh.area);
       log::info(std::string("form factors (") + (symmetrise_ff ? "symmetrised" : "") +
@@ -200,7 +230,28 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
   else
     problem->system = std::make_unique<System>(problem->scene(), problem->mesh, *problem->method);
 
-  if (spec.need_reference) {
+  if (spec.need_reference && streamed) {
+    // The checks of a dense build, from the same pass (rows summing above 1 + the stated error,
+    // the emitters' power), then the certificate's wording.
+    RowSumCheck& sums = problem->row_sums;
+    sums.stated_error = stated_row_sum_error(*problem->method);
+    sums.row_sum_min =
+        n ? *std::min_element(streamed->row_sum.begin(), streamed->row_sum.end()) : 0.0;
+    sums.row_sum_max =
+        n ? *std::max_element(streamed->row_sum.begin(), streamed->row_sum.end()) : 0.0;
+    for (double v : streamed->row_sum) sums.rows_above += v > 1.0 + sums.stated_error;
+    problem->used_row_sums = sums;
+    double sent = 0.0, gathered = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+      double e = 0.0;
+      for (int c = 0; c < problem->system->channels(); ++c)
+        e += problem->system->emission().at(c, i);
+      sent += e * problem->mesh.area[i] * streamed->row_sum[i];
+      gathered += problem->mesh.area[i] * streamed->emitter_sum[i];
+    }
+    refuse_unphysical(*problem, accept_unphysical,
+                      sent > 0 ? gathered / sent : (gathered > 0 ? 1e300 : 1.0));
+  } else if (spec.need_reference) {
     Progress progress("reference solution (" + std::to_string(n) + " elements)", "", 0);
     const FormFactorMatrix& certified = problem->certified_matrix();
     System cached(problem->scene(), problem->mesh, certified);
@@ -217,7 +268,8 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
       computing = references->lock(reference_key);
       problem->reference = references->load(reference_key, cached, certified, {});
     }
-    refuse_unphysical(*problem, accept_unphysical);
+    refuse_unphysical(*problem, accept_unphysical,
+                      emitted_power_ratio(problem->matrix, problem->scene(), problem->mesh));
     if (!problem->reference) {
       try {
         problem->reference = compute_reference(cached, certified);
@@ -227,6 +279,10 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
       }
       if (references) references->store(reference_key, *problem->reference);
     }
+    computing.reset();
+    progress.finish();
+  }
+  if (spec.need_reference) {
     problem->reference->system =
         "F of " + spec.ff_method + " in double precision, as computed" +
         (symmetrise_ff ? ", then symmetrised (symmetrise=true, the default with cached rows: a "
@@ -237,8 +293,9 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
              ? "; UNPHYSICAL: rows of F above 1 + the method's stated error, accepted with "
                "unphysical=accept"
              : "");
-    computing.reset();
-    progress.finish();
+    if (streamed)
+      problem->reference->system +=
+          "; rows computed on the fly, the cached reference certified against them";
     log::info("reference: " + problem->reference->summary());
   }
   return problem;

@@ -74,6 +74,23 @@ ReferenceCacheKey reference_cache_key(const MatrixCacheKey& matrix_key, bool sym
 std::optional<Reference> ReferenceCache::load(const ReferenceCacheKey& key, const System& system,
                                               const FormFactorMatrix& matrix,
                                               const ReferenceOptions& options) const {
+  return load(key, system,
+              [&](Reference& ref) { recertify_reference(system, matrix, ref, options); });
+}
+
+std::optional<Reference> ReferenceCache::load(const ReferenceCacheKey& key, const System& system,
+                                              const FormFactorMethod& method,
+                                              const ReferenceOptions& options,
+                                              StreamedCheck& check) const {
+  return load(key, system, [&](Reference& ref) {
+    check = streamed_check(system, method, ref.B);
+    recertify_reference(system, check.residual, ref, options);
+  });
+}
+
+std::optional<Reference> ReferenceCache::load(
+    const ReferenceCacheKey& key, const System& system,
+    const std::function<void(Reference&)>& recertify) const {
   const std::filesystem::path file = path(key);
   std::error_code ec;
   if (!std::filesystem::exists(file, ec)) return std::nullopt;
@@ -128,7 +145,7 @@ std::optional<Reference> ReferenceCache::load(const ReferenceCacheKey& key, cons
   for (double v : ref.channel_inverse_norm)
     ref.inverse_norm_bound = std::max(ref.inverse_norm_bound, v);
   try {
-    recertify_reference(system, matrix, ref, options);
+    recertify(ref);
   } catch (const NumericalError& e) {
     return reject(std::string("does not certify against this matrix (") + e.what() + ")");
   }

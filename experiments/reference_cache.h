@@ -4,12 +4,14 @@
 // solution depends on: the form-factor matrix's own cache key (mesh, method, parameters,
 // precision, code), whether it was symmetrised, every element's reflectance and emission, and the
 // reference options. A loaded reference is not trusted: recertify_reference() recomputes its
-// residual against the matrix in memory, so the certificate printed is always of this run. A
+// residual against the matrix in memory (or the rows the method computes, when rows are on the
+// fly), so the certificate printed is always of this run. A
 // corrupt, stale or uncertifiable file is reported, deleted and the reference recomputed.
 // Writes, locks and the removal of stale temporaries work as in formfactor/matrix_cache.h.
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 
@@ -42,6 +44,12 @@ class ReferenceCache {
   std::optional<Reference> load(const ReferenceCacheKey& key, const System& system,
                                 const FormFactorMatrix& matrix,
                                 const ReferenceOptions& options) const;
+  // The same, certified with rows computed by `method` (one pass, O(n) memory: rows on the fly
+  // need no dense matrix); `check` receives that pass's row sums for the physical checks (only
+  // filled when a stored file was read).
+  std::optional<Reference> load(const ReferenceCacheKey& key, const System& system,
+                                const FormFactorMethod& method, const ReferenceOptions& options,
+                                StreamedCheck& check) const;
 
   // As MatrixCache::lock: held while computing and storing the reference of `key`.
   std::unique_ptr<FileLock> lock(const ReferenceCacheKey& key) const;
@@ -51,6 +59,8 @@ class ReferenceCache {
   bool store(const ReferenceCacheKey& key, const Reference& reference) const;
 
  private:
+  std::optional<Reference> load(const ReferenceCacheKey& key, const System& system,
+                                const std::function<void(Reference&)>& recertify) const;
   std::filesystem::path folder_;
 };
 

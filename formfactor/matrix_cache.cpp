@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <functional>
 #include <memory>
 
 #include "core/log.h"
@@ -85,7 +86,7 @@ struct Header {
   uint32_t version;
   uint32_t byte_order;
   uint64_t n;
-  uint32_t precision;  // 0 float, 1 double
+  uint32_t precision;  // 0 float, 1 double; plus 256 for the sparse layout
   uint32_t key_text_bytes;
   uint64_t key_hash[2];
   uint64_t payload_bytes;
@@ -110,6 +111,88 @@ struct FileCloser {
 using File = std::unique_ptr<std::FILE, FileCloser>;
 
 constexpr uint64_t kPayloadSeed = 0xfeedface;
+constexpr uint32_t kSparseFlag = 256;
+constexpr uint32_t kWholeRow = UINT32_MAX;  // a sparse-layout row stored as all n values
+
+// The sparse payload: for each row two uint32_t, its run count (kWholeRow for a whole row) and
+// value count, then each row's runs (FormFactorMatrix::SparseRow) and values. The checksum
+// chains over the pieces in file order.
+template <class T>
+uint64_t sparse_payload(const FormFactorMatrix& m,
+                        const std::vector<T> FormFactorMatrix::SparseRow::*values,
+                        const std::function<void(const void*, size_t)>& write) {
+  const size_t n = m.size();
+  std::vector<uint32_t> counts(2 * n);
+  for (size_t i = 0; i < n; ++i) {
+    const auto& row = m.sparse_row(i);
+    counts[2 * i] = m.whole_row(i) ? kWholeRow : uint32_t(row.run.size() / 2);
+    counts[2 * i + 1] = uint32_t((row.*values).size());
+  }
+  uint64_t checksum = hash_bytes(counts.data(), counts.size() * sizeof(uint32_t), kPayloadSeed);
+  if (write) write(counts.data(), counts.size() * sizeof(uint32_t));
+  for (size_t i = 0; i < n; ++i) {
+    const auto& row = m.sparse_row(i);
+    const size_t run_bytes = row.run.size() * sizeof(uint32_t);
+    const size_t value_bytes = (row.*values).size() * sizeof(T);
+    checksum = hash_bytes(row.run.data(), run_bytes, checksum);
+    checksum = hash_bytes((row.*values).data(), value_bytes, checksum);
+    if (write) {
+      write(row.run.data(), run_bytes);
+      write((row.*values).data(), value_bytes);
+    }
+  }
+  return checksum;
+}
+
+uint64_t sparse_payload_bytes(const FormFactorMatrix& m) {
+  size_t bytes = 2 * m.size() * sizeof(uint32_t);
+  for (size_t i = 0; i < m.size(); ++i) {
+    const auto& row = m.sparse_row(i);
+    bytes += row.run.size() * sizeof(uint32_t) + row.f32.size() * sizeof(float) +
+             row.f64.size() * sizeof(double);
+  }
+  return bytes;
+}
+
+// Reads the sparse payload of an n x n matrix; an error message, or empty on success. Sizes are
+// checked against the payload's (which matches the file's) before any allocation, and every
+// row's runs by set_sparse_row.
+template <class T>
+std::string read_sparse(std::FILE* f, uint64_t payload_bytes, uint64_t expected_checksum,
+                        std::vector<T> FormFactorMatrix::SparseRow::*values, FormFactorMatrix& m) {
+  const size_t n = m.size();
+  std::vector<uint32_t> counts(2 * n);
+  if (n && std::fread(counts.data(), sizeof(uint32_t), counts.size(), f) != counts.size())
+    return "truncated payload";
+  uint64_t bytes = counts.size() * sizeof(uint32_t);
+  for (size_t i = 0; i < n; ++i) {
+    const uint32_t runs = counts[2 * i], count = counts[2 * i + 1];
+    if (runs == kWholeRow ? count != n : (count > n || runs > count))
+      return "corrupt payload (row " + std::to_string(i) + "'s counts)";
+    bytes += (runs == kWholeRow ? 0 : 2 * uint64_t(runs) * sizeof(uint32_t)) +
+             uint64_t(count) * sizeof(T);
+  }
+  if (bytes != payload_bytes) return "corrupt payload (row counts do not match its size)";
+  uint64_t checksum = hash_bytes(counts.data(), counts.size() * sizeof(uint32_t), kPayloadSeed);
+  for (size_t i = 0; i < n; ++i) {
+    FormFactorMatrix::SparseRow row;
+    const uint32_t runs = counts[2 * i], count = counts[2 * i + 1];
+    if (runs != kWholeRow) row.run.resize(2 * size_t(runs));
+    (row.*values).resize(count);
+    if (std::fread(row.run.data(), sizeof(uint32_t), row.run.size(), f) != row.run.size() ||
+        std::fread((row.*values).data(), sizeof(T), count, f) != count)
+      return "truncated payload";
+    checksum = hash_bytes(row.run.data(), row.run.size() * sizeof(uint32_t), checksum);
+    checksum = hash_bytes((row.*values).data(), count * sizeof(T), checksum);
+    try {
+      m.set_sparse_row(i, std::move(row));
+    } catch (const std::invalid_argument& e) {
+      return std::string("corrupt payload (") + e.what() + ")";
+    }
+  }
+  if (checksum != expected_checksum) return "payload checksum mismatch (corrupt)";
+  return {};
+}
 
 }  // namespace
 
@@ -148,20 +231,34 @@ std::optional<FormFactorMatrix> MatrixCache::load(const MatrixCacheKey& key,
   if (h.header_checksum != header_checksum(h, key_text)) return reject("header checksum mismatch");
   if (key_text != key.text || h.key_hash[0] != key.hash[0] || h.key_hash[1] != key.hash[1])
     return reject("stale: stored for a different key (" + key_text + ")");
-  const Precision precision = h.precision == 1 ? Precision::kDouble : Precision::kFloat;
+  const bool sparse = (h.precision & kSparseFlag) != 0;
+  const uint32_t precision_code = h.precision & ~kSparseFlag;
+  const Precision precision = precision_code == 1 ? Precision::kDouble : Precision::kFloat;
   const uint64_t element_bytes = precision == Precision::kFloat ? sizeof(float) : sizeof(double);
-  if (h.precision > 1 || h.n > (uint64_t(1) << 24) || h.payload_bytes != h.n * h.n * element_bytes)
+  if (precision_code > 1 || h.n > (uint64_t(1) << 24) ||
+      (!sparse && h.payload_bytes != h.n * h.n * element_bytes) ||
+      (sparse && h.payload_bytes > h.n * (8 + h.n * (8 + element_bytes))))
     return reject("corrupt header (size fields)");
   if (file_size != sizeof(Header) + h.key_text_bytes + h.payload_bytes)
     return reject("size " + std::to_string(file_size) + " bytes, expected " +
                   std::to_string(sizeof(Header) + h.key_text_bytes + h.payload_bytes) +
                   " (truncated or padded)");
 
-  FormFactorMatrix matrix(size_t(h.n), precision);
-  if (h.payload_bytes && std::fread(matrix.data(), 1, h.payload_bytes, f.get()) != h.payload_bytes)
-    return reject("truncated payload");
-  if (hash_bytes(matrix.data(), h.payload_bytes, kPayloadSeed) != h.payload_checksum)
-    return reject("payload checksum mismatch (corrupt)");
+  FormFactorMatrix matrix(size_t(h.n), precision, sparse ? Layout::kSparse : Layout::kDense);
+  if (sparse) {
+    const std::string error = precision == Precision::kFloat
+                                  ? read_sparse(f.get(), h.payload_bytes, h.payload_checksum,
+                                                &FormFactorMatrix::SparseRow::f32, matrix)
+                                  : read_sparse(f.get(), h.payload_bytes, h.payload_checksum,
+                                                &FormFactorMatrix::SparseRow::f64, matrix);
+    if (!error.empty()) return reject(error);
+  } else {
+    if (h.payload_bytes &&
+        std::fread(matrix.data(), 1, h.payload_bytes, f.get()) != h.payload_bytes)
+      return reject("truncated payload");
+    if (hash_bytes(matrix.data(), h.payload_bytes, kPayloadSeed) != h.payload_checksum)
+      return reject("payload checksum mismatch (corrupt)");
+  }
 
   if (report) {
     report->cost.rays = h.rays;
@@ -194,12 +291,19 @@ bool MatrixCache::store(const MatrixCacheKey& key, const FormFactorMatrix& matri
   h.version = kFormatVersion;
   h.byte_order = kByteOrderMark;
   h.n = n;
-  h.precision = matrix.precision() == Precision::kDouble ? 1 : 0;
+  h.precision =
+      (matrix.precision() == Precision::kDouble ? 1 : 0) | (matrix.sparse() ? kSparseFlag : 0);
   h.key_text_bytes = uint32_t(key.text.size());
   h.key_hash[0] = key.hash[0];
   h.key_hash[1] = key.hash[1];
-  h.payload_bytes = matrix.bytes();
-  h.payload_checksum = hash_bytes(matrix.data(), matrix.bytes(), kPayloadSeed);
+  auto payload = [&](const std::function<void(const void*, size_t)>& write) {
+    return matrix.precision() == Precision::kFloat
+               ? sparse_payload(matrix, &FormFactorMatrix::SparseRow::f32, write)
+               : sparse_payload(matrix, &FormFactorMatrix::SparseRow::f64, write);
+  };
+  h.payload_bytes = matrix.sparse() ? sparse_payload_bytes(matrix) : matrix.bytes();
+  h.payload_checksum =
+      matrix.sparse() ? payload({}) : hash_bytes(matrix.data(), matrix.bytes(), kPayloadSeed);
   h.rays = report.cost.rays;
   h.kernel_evaluations = report.cost.kernel_evaluations;
   h.pairs_culled = report.cost.pairs_culled;
@@ -215,7 +319,12 @@ bool MatrixCache::store(const MatrixCacheKey& key, const FormFactorMatrix& matri
     OutputFile out(final_path.string(), /*binary=*/true, /*sync=*/true);
     out.write({reinterpret_cast<const char*>(&h), sizeof h});
     out.write(key.text);
-    out.write({reinterpret_cast<const char*>(matrix.data()), matrix.bytes()});
+    if (matrix.sparse())
+      payload([&](const void* bytes, size_t size) {
+        out.write({static_cast<const char*>(bytes), size});
+      });
+    else
+      out.write({reinterpret_cast<const char*>(matrix.data()), matrix.bytes()});
     out.commit();
   } catch (const std::exception& e) {
     log::warning(std::string("form-factor cache: ") + e.what() + "; the matrix is not cached");

@@ -10,7 +10,10 @@
 //   header  magic "RADLABFF", format version, byte-order mark, n, precision, key hash, key text
 //           length, payload bytes, payload checksum (64-bit), the cost of the original build
 //           (BuildReport), header checksum
-//   key text, then the payload: n*n floats or doubles, row-major, native byte order.
+//   key text, then the payload, native byte order: dense, n*n floats or doubles, row-major;
+//   sparse (precision field + 256), per row two uint32 (its run count, 2^32-1 for a whole row,
+//   and its value count), then each row's runs and values (formfactor/matrix.h), the checksum
+//   chained over the pieces. A load validates counts, sizes and runs before anything is used.
 // A file that is truncated, has the wrong size, a different version or byte order, a different
 // key, or a checksum mismatch is reported (log::warning), deleted and rebuilt; it is never
 // trusted. Files are written to a temporary name in the same folder, synced to disk and renamed
@@ -59,7 +62,8 @@ std::filesystem::path default_cache_dir();
 
 class MatrixCache {
  public:
-  static constexpr uint32_t kFormatVersion = 1;
+  // 2: the sparse layout (FormFactorMatrix::sparse()) is stored as such.
+  static constexpr uint32_t kFormatVersion = 2;
 
   explicit MatrixCache(std::filesystem::path folder) : folder_(std::move(folder)) {}
   const std::filesystem::path& folder() const { return folder_; }

@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "core/radiosity.h"
+#include "formfactor/form_factor_method.h"
 #include "formfactor/matrix.h"
 #include "solvers/system.h"
 
@@ -74,6 +75,22 @@ Reference compute_reference(const System& system, const FormFactorMatrix& matrix
 // and bound_relative; throws NumericalError when the bound exceeds options.acceptable of max B,
 // so a stale or damaged B is never used.
 void recertify_reference(const System& system, const FormFactorMatrix& matrix, Reference& ref,
+                         const ReferenceOptions& options = {});
+
+// One pass over F's rows computed by `method` (O(n) memory: for rows on the fly, when the dense
+// matrix is not held): every channel's ||E - (I - J) B||_inf with the same long-double blocked
+// sums and rounding bound as residual_inf, each row's sum, and each row's emission-weighted sum
+// sum_j E_j F_ij (E summed over channels), for the checks a dense build runs.
+struct StreamedCheck {
+  std::vector<double> residual;     // per channel
+  std::vector<double> row_sum;      // per row
+  std::vector<double> emitter_sum;  // per row
+};
+StreamedCheck streamed_check(const System& system, const FormFactorMethod& method,
+                             const Radiosity& B);
+
+// recertify_reference with the residuals of a streamed_check (rows from the method).
+void recertify_reference(const System& system, const std::vector<double>& residuals, Reference& ref,
                          const ReferenceOptions& options = {});
 
 // Collatz–Wielandt bounds on the spectral radius of J = diag(rho) F for one channel after
