@@ -116,12 +116,20 @@ TEST(Registry, DocsSolverTableNamesEverySolverAndParameter) {
   std::ifstream file(std::string(RADLAB_SOURCE_DIR) + "/docs/solvers.md");
   ASSERT_TRUE(file) << "docs/solvers.md";
   std::map<std::string, std::string> rows;  // solver -> its table row
+  // The solver table is the page's first table: its rows start "| `name`"; it ends at the
+  // first line that is not a table row (later tables, e.g. hierarchical's measurements, also
+  // start with a backquoted cell and are not solver rows).
   std::string line;
-  while (std::getline(file, line))
+  bool in_table = false;
+  while (std::getline(file, line)) {
+    const bool table_line = text::starts_with(line, "|");
+    if (in_table && !table_line) break;
+    in_table = in_table || table_line;
     if (text::starts_with(line, "| `")) {
       const size_t end = line.find('`', 3);
       rows[line.substr(3, end - 3)] = line;
     }
+  }
   std::set<std::string> registered;
   for (const SolverInfo& info : solver_registry()) {
     registered.insert(info.name);
