@@ -6,6 +6,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -98,10 +99,30 @@ class LinearSolve {
 };
 
 class DenseLu final : public LinearSolve {
+  static uint64_t next_build() {
+    static std::atomic<uint64_t> count{0};
+    return ++count;
+  }
+
  public:
   DenseLu(const FormFactorMatrix& F, std::span<const double> rho)
-      : lu_(F.size(),
-            [&](size_t i, size_t j) { return (i == j ? 1.0 : 0.0) - rho[i] * F.at(i, j); }) {}
+      : lu_(F.size(), [&, build = next_build()](size_t i, size_t j) {
+          // BlockedLu asks row by row on each thread: expand row i once (F.at() on a sparse row
+          // is a search per entry). The cache is keyed by this factorisation's number, not the
+          // matrix's address, which a later matrix may reuse.
+          thread_local std::vector<double> row;
+          thread_local size_t row_index = size_t(-1);
+          thread_local uint64_t row_build = 0;
+          if (row_index != i || row_build != build) {
+            row.resize(F.size());
+            F.visit_row(i, [&](const auto* values) {
+              for (size_t k = 0; k < row.size(); ++k) row[k] = double(values[k]);
+            });
+            row_index = i;
+            row_build = build;
+          }
+          return (i == j ? 1.0 : 0.0) - rho[i] * row[j];
+        }) {}
   void solve(const std::vector<double>& b, std::vector<double>& x) override { lu_.solve(b, x); }
 
  private:
