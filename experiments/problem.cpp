@@ -15,12 +15,8 @@ namespace {
 // stated error are reported with their worst entries and polygons. `used`: the matrix the
 // solvers use (symmetrised); else the method's own.
 void check_row_sums(Problem& problem, bool used) {
-  std::function<double(size_t, size_t)> unoccluded;
-  if (auto* raycast = dynamic_cast<const RaycastFormFactors*>(problem.method.get()))
-    unoccluded = [raycast](size_t i, size_t j) { return raycast->unoccluded_pair(i, j); };
   RowSumCheck& check = used ? problem.used_row_sums : problem.row_sums;
-  check = check_row_sums(problem.matrix, problem.scene(), problem.mesh,
-                         stated_row_sum_error(*problem.method), unoccluded);
+  check = check_row_sums(problem.matrix, problem.scene(), problem.mesh, *problem.method);
   if (!check.ok())
     log::warning(std::string(used ? "form factors (symmetrised): " : "form factors: ") +
                  check.report(problem.scene(), problem.mesh));
