@@ -136,6 +136,10 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
     }
     if (cached) {
       problem->matrix = std::move(*cached);
+      // raycast's per-row visibility errors, kept beside the matrix (else rows the check needs
+      // are recomputed)
+      if (auto* raycast = dynamic_cast<const RaycastFormFactors*>(problem->method.get()))
+        load_row_sampling_errors(*raycast, cache->path(key).string(), n);
       log::info("form factors: " + problem->build.summary());
     } else {
       Progress progress("form factors (" + spec.ff_method + ", " + std::to_string(n) + " rows)",
@@ -153,8 +157,11 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
       throw NumericalError("form factors '" + spec.ff_method +
                            "': " + problem->raw_diagnostics.summary());
     check_row_sums(*problem, false);
-    if (cache && !problem->build.cached && cache->store(key, problem->matrix, problem->build))
+    if (cache && !problem->build.cached && cache->store(key, problem->matrix, problem->build)) {
       problem->build.cache_file = cache->path(key).string();
+      if (auto* raycast = dynamic_cast<const RaycastFormFactors*>(problem->method.get()))
+        save_row_sampling_errors(*raycast, problem->build.cache_file);
+    }
     building.reset();
     if (symmetrise_ff) {
       log::info("form factors (as computed): " + problem->raw_diagnostics.summary());

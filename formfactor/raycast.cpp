@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <glm/geometric.hpp>
 #include <limits>
 
@@ -233,6 +235,35 @@ double RaycastFormFactors::row_sampling_error(size_t i) const {
     row(i, scratch, cost);
   }
   return double(row_sigma_[i]);
+}
+
+void RaycastFormFactors::set_row_sampling_errors(std::vector<float> sigma) const {
+  if (sigma.size() == row_sigma_.size()) row_sigma_ = std::move(sigma);
+}
+
+void save_row_sampling_errors(const RaycastFormFactors& method, const std::string& matrix_file) {
+  const std::vector<float> sigma = method.row_sampling_errors();
+  const std::string temporary = matrix_file + ".sigma.tmp";
+  {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    out.write(reinterpret_cast<const char*>(sigma.data()), std::streamsize(sigma.size() * 4));
+    if (!out) return;  // best effort: without it the check recomputes rows
+  }
+  std::error_code ignored;
+  std::filesystem::rename(temporary, matrix_file + ".sigma", ignored);
+}
+
+bool load_row_sampling_errors(const RaycastFormFactors& method, const std::string& matrix_file,
+                              size_t n) {
+  std::ifstream in(matrix_file + ".sigma", std::ios::binary);
+  if (!in) return false;
+  std::vector<float> sigma(n);
+  in.read(reinterpret_cast<char*>(sigma.data()), std::streamsize(n * 4));
+  if (!in || in.peek() != std::char_traits<char>::eof()) return false;
+  for (float s : sigma)
+    if (!(s >= 0.0f) && !std::isnan(s)) return false;  // negative or infinite: not ours
+  method.set_row_sampling_errors(std::move(sigma));
+  return true;
 }
 
 double RaycastFormFactors::largest_row_sampling_error() const {

@@ -70,6 +70,11 @@ class RaycastFormFactors final : public FormFactorMethod {
   double row_sampling_error(size_t i) const;
   // The largest row_sampling_error over the rows computed so far (0 when none).
   double largest_row_sampling_error() const;
+  // Every row's sampling error as known (NaN for rows not computed), and the same restored
+  // (for a matrix loaded from the cache: its rows' errors kept beside it, so the row-sum check
+  // need not recompute rows; save_/load_row_sampling_errors). Not thread-safe.
+  std::vector<float> row_sampling_errors() const { return row_sigma_; }
+  void set_row_sampling_errors(std::vector<float> sigma) const;
   // The order of the Gauss rule the pair's F^u uses (order x order points per fan triangle or
   // quad), or 0 when it goes adaptive or has nothing in front of j's plane. For benchmarks.
   int fixed_order(size_t i, size_t j) const;
@@ -87,6 +92,14 @@ class RaycastFormFactors final : public FormFactorMethod {
   Visibility visibility_;
   mutable std::vector<float> row_sigma_;  // per row: row_sampling_error, NaN until computed
 };
+
+// Each row's visibility sampling error beside a cached matrix file (`matrix_file` + ".sigma":
+// n floats, written to a temporary name and renamed). load_ returns false (and changes nothing)
+// when the file is missing, of the wrong size or unreadable: the rows are then recomputed when
+// the check needs them.
+void save_row_sampling_errors(const RaycastFormFactors& method, const std::string& matrix_file);
+bool load_row_sampling_errors(const RaycastFormFactors& method, const std::string& matrix_file,
+                              size_t n);
 
 // False when j lies wholly behind or in i's plane, or i wholly behind or in j's (up to
 // `epsilon` metres): such a pair exchanges no light and costs nothing.
