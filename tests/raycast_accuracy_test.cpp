@@ -6,6 +6,7 @@
 #include <cmath>
 #include <glm/geometric.hpp>
 
+#include "formfactor/matrix.h"
 #include "formfactor/point_polygon.h"
 #include "formfactor/raycast.h"
 #include "formfactor/sampling.h"
@@ -144,6 +145,34 @@ TEST(RaycastQuadrature, TouchingPairMeetsTheTolerance) {
     const RaycastFormFactors ff(scene, mesh, options);
     EXPECT_NEAR(ff.unoccluded_pair(3, 7) / truth - 1.0, 0.0, tolerance) << tolerance;
   }
+}
+
+// Each row's visibility sampling error is the same whether it comes from a build of every row
+// (V and its error kept per pair), from computing the row alone, or from the file kept beside a
+// cached matrix; and a build gives every row one (the row-sum check needs them).
+TEST(RowSamplingError, SameFromTheBuildTheRowAloneAndTheCacheFile) {
+  const LoadedScene loaded = load_scene("builtin:cornell", false);
+  const Mesh mesh = build_mesh(loaded.scene, {});
+  const RaycastFormFactors built(loaded.scene, mesh, {});
+  BuildReport report;
+  build_matrix(built, mesh.size(), Precision::kFloat, report);
+  const std::vector<float> sigma = built.row_sampling_errors();
+  ASSERT_EQ(sigma.size(), mesh.size());
+  size_t positive = 0;
+  for (float s : sigma) {
+    ASSERT_FALSE(std::isnan(s));
+    positive += s > 0.0f ? 1 : 0;
+  }
+  EXPECT_GT(positive, 0u);  // the boxes occlude: some rows have traced pairs
+  const RaycastFormFactors alone(loaded.scene, mesh, {});
+  for (size_t i = 0; i < mesh.size(); i += 3) EXPECT_EQ(alone.row_sampling_error(i), sigma[i]);
+  testing::TempDir dir;
+  const std::string file = dir.file("matrix.ffm");
+  save_row_sampling_errors(built, file);
+  const RaycastFormFactors restored(loaded.scene, mesh, {});
+  EXPECT_FALSE(load_row_sampling_errors(restored, file, mesh.size() + 1));  // wrong size
+  ASSERT_TRUE(load_row_sampling_errors(restored, file, mesh.size()));
+  EXPECT_EQ(restored.row_sampling_errors(), sigma);
 }
 
 }  // namespace
