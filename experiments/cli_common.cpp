@@ -1,8 +1,12 @@
 #include "experiments/cli_common.h"
 
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <memory>
 
 #include "core/error.h"
 #include "core/text.h"
@@ -67,6 +71,31 @@ void add_form_factor_options(CLI::App& command, FormFactorOptions& o, bool with_
                     "cached: rows from the dense matrix; on-the-fly: every row recomputed and its "
                     "time charged to the solver")
         ->check(CLI::IsMember({"cached", "on-the-fly"}));
+}
+
+void add_threads_option(CLI::App& app, int& threads) {
+  app.add_option("--threads", threads,
+                 "the most threads radlab uses (matrix build, on-the-fly rows, the reference's "
+                 "LU and GMRES); default 0 = every core (" +
+                     std::to_string(tbb::info::default_concurrency()) +
+                     " here). Results are the same bits whatever N (docs/performance.md)")
+      ->check(CLI::Validator(
+          [](std::string& value) -> std::string {
+            auto k = text::parse_int(value);
+            if (!k || *k < 0 || *k > 4096)
+              return "--threads must be a whole number in [0, 4096], got '" + value + "'";
+            return {};
+          },
+          "N >= 0", "threads"));
+}
+
+void apply_threads(int threads) {
+  // Kept for the life of the process: TBB honours the strictest live global_control.
+  static std::unique_ptr<tbb::global_control> control;
+  control.reset();
+  if (threads > 0)
+    control = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                    size_t(threads));
 }
 
 ProblemSpec make_spec(const SceneOptions& scene, const FormFactorOptions& ff) {

@@ -32,6 +32,14 @@ void add_scene_options(CLI::App& command, SceneOptions& options);
 void add_mesh_options(CLI::App& command, SceneOptions& options);
 void add_form_factor_options(CLI::App& command, FormFactorOptions& options, bool with_mode);
 
+// --threads N, a global option (every subcommand): the most threads radlab's parallel parts
+// (matrix build, on-the-fly rows, the reference's LU and GMRES) may use; 0 or absent = every core.
+// Checked on the text: N must be a whole number in [0, 4096].
+void add_threads_option(CLI::App& app, int& threads);
+// Sets the limit for the rest of the process (a tbb::global_control kept until exit); 0 keeps
+// TBB's default (every core the process may run on).
+void apply_threads(int threads);
+
 ProblemSpec make_spec(const SceneOptions& scene, const FormFactorOptions& ff);
 
 // Creates the parent folder of `path` if it has one.

@@ -27,6 +27,8 @@ int main(int argc, char** argv) {
   app.add_option("--mgf-include-root", include_root,
                  "let MGF scenes include files anywhere inside this folder (default: only inside "
                  "the scene file's own folder)");
+  int threads = 0;
+  radlab::cli::add_threads_option(app, threads);
   // These options may also follow the subcommand.
   app.fallthrough();
   radlab::cli::add_scenes_command(app);
@@ -41,6 +43,7 @@ int main(int argc, char** argv) {
     radlab::log::set_quiet(quiet);
     if (!limits.empty()) radlab::set_limits(limits);
     radlab::set_mgf_include_root(include_root);
+    radlab::cli::apply_threads(threads);
   });
   try {
     app.parse(argc, argv);

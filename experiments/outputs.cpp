@@ -1,5 +1,6 @@
 #include "experiments/outputs.h"
 
+#include <tbb/global_control.h>
 #include <tbb/info.h>
 
 #include <cstdio>
@@ -31,7 +32,8 @@ void write_build_info(JsonWriter& json) {
   json.field("source_hash", formfactor_code_version());
   json.field("compiler", std::string("g++ ") + __VERSION__);
   json.field("build_type", RADLAB_BUILD_TYPE);
-  json.field("threads", tbb::info::default_concurrency());
+  json.field("threads",
+             int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)));
   json.end_object();
 }
 
@@ -138,7 +140,9 @@ void write_run_result(JsonWriter& json, const Budget& budget, const RunResult& r
   json.field("p_max", r.final_errors.p_max);
   json.field("rms_rel_display", r.final_display_errors.rms_rel);
   json.field("bound_relative", r.final_bound_relative);
+  json.field("bound_relative_reflected", r.final_bound_relative_reflected);
   if (r.tolerance_asked) {
+    json.field("tolerance_of", std::string(r.tolerance_of_reflected ? "reflected" : "max-b"));
     json.field("tolerance_reached", r.tolerance_reached);
     if (!r.tolerance_reached) json.field("tolerance_message", r.tolerance_message);
   }

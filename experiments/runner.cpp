@@ -47,9 +47,15 @@ class Evaluator {
   Evaluator(const Problem& problem, const RunLabels& labels, TraceWriter* trace)
       : problem_(problem), labels_(labels), trace_(trace) {
     if (problem.reference) {
-      for (int c = 0; c < problem.reference->B.channels(); ++c)
-        for (double v : problem.reference->B.channel(c))
-          max_reference_ = std::max(max_reference_, v);
+      const Radiosity& emission = problem.system->emission();
+      for (int c = 0; c < problem.reference->B.channels(); ++c) {
+        const auto b = problem.reference->B.channel(c);
+        const auto e = emission.channel(c);
+        for (size_t i = 0; i < b.size(); ++i) {
+          max_reference_ = std::max(max_reference_, b[i]);
+          max_reflected_ = std::max(max_reflected_, b[i] - e[i]);
+        }
+      }
     }
     for (double v : problem.system->emission().raw())
       max_emission_ = std::max(max_emission_, std::abs(v));
@@ -152,11 +158,19 @@ class Evaluator {
     return max_reference_ > 0 ? bound / max_reference_ : bound;
   }
 
+  // max B* / max(B* - E): turns a bound relative to max B* into one relative to the reflected
+  // light (NaN when there is no reference or nothing is reflected).
+  double reflected_scale() const {
+    return max_reflected_ > 0 && max_reference_ > 0 ? max_reference_ / max_reflected_
+                                                    : std::nan("");
+  }
+
  private:
   const Problem& problem_;
   const RunLabels& labels_;
   TraceWriter* trace_;
   double max_reference_ = 0.0;
+  double max_reflected_ = 0.0;  // max over elements and channels of B* - E
   double max_emission_ = 0.0;
   double initial_residual_ = -1.0;
 };
@@ -168,8 +182,8 @@ class Evaluator {
 // that window it halves its error. A slower solver (damped Jacobi at omega = 1/2 gains
 // 1 - (1-r)/2) still gains ~30%, far above 1%. Best-of-half, not the bound at one checkpoint:
 // mid-sweep a gathering solver's iterate mixes two sweeps and its inf-norm residual oscillates.
-void check_stagnation(const Problem& problem, const RunResult& result, double bound, double tol,
-                      const std::string& run_id) {
+void check_stagnation(const Problem& problem, const RunResult& result, double bound,
+                      const std::string& tolerance, const std::string& run_id) {
   const double n = double(problem.system->size());
   const double rows_now = double(problem.system->rows_used());
   const double r = problem.reference ? problem.reference->spectral_radius_upper : 0.0;
@@ -195,7 +209,7 @@ void check_stagnation(const Problem& problem, const RunResult& result, double bo
         ". F is stored in float and the certificate is of the double-precision F: float "
         "rounding floors the bound (use --precision double to go lower)";
   throw NumericalError(run_id + ": stagnated at certified relative bound " +
-                       text::format_double(bound) + " (tolerance " + text::format_double(tol) +
+                       text::format_double(bound) + " of max B* (tolerance " + tolerance +
                        "): " + why);
 }
 
@@ -223,6 +237,19 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
 
   RunResult result;
   Evaluator evaluator(problem, labels, trace);
+  // A tolerance on the reflected light is converted once to the max-B* scale the bounds are
+  // computed in, so the stop test and the stagnation test need no second scale.
+  const double scale = evaluator.reflected_scale();
+  if (budget.tol && budget.tol_of_reflected) {
+    if (!std::isfinite(scale))
+      throw UsageError("--tol-of reflected: the reference reflects no light (max(B* - E) = 0)");
+    budget.tol = *budget.tol / scale;
+  }
+  const std::string tolerance_text =
+      !budget.tol               ? std::string()
+      : budget.tol_of_reflected ? text::format_double(*budget.tol) + " of max B*, i.e. " +
+                                      text::format_double(*budget_in.tol) + " of max(B* - E)"
+                                : text::format_double(*budget.tol) + " of max B*";
   using Clock = std::chrono::steady_clock;
   system.reset_counters();
   auto t0 = Clock::now();
@@ -287,7 +314,7 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
     if (step == next_checkpoint || at_end) {
       bound = checkpoint();
       next_checkpoint = schedule.next_after(step);
-      if (budget.tol) check_stagnation(problem, result, bound, *budget.tol, labels.run_id);
+      if (budget.tol) check_stagnation(problem, result, bound, tolerance_text, labels.run_id);
     }
     if (info.finished) {
       result.stop_reason = "solver finished";
@@ -302,13 +329,18 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
   result.reference_kind = problem.reference ? problem.reference->kind : "none";
   result.seconds = seconds;
   result.final_bound_relative = bound;
+  result.final_bound_relative_reflected = bound * scale;
+  result.tolerance_of_reflected = budget.tol_of_reflected;
   if (budget.tol) {
     result.tolerance_asked = true;
     result.tolerance_reached = bound <= *budget.tol;
+    const std::string of = budget.tol_of_reflected ? " of max(B* - E)" : " of max B*";
+    const double asked = budget_in.tol.value_or(0.0);
+    const double reached = budget.tol_of_reflected ? bound * scale : bound;
     if (!result.tolerance_reached)
       result.tolerance_message =
-          "tolerance " + text::format_double(*budget.tol) + " not reached: certified bound " +
-          text::format_double(bound) + " when the run stopped (" + result.stop_reason + ")" +
+          "tolerance " + text::format_double(asked) + of + " not reached: certified bound " +
+          text::format_double(reached) + of + " when the run stopped (" + result.stop_reason + ")" +
           (budget_in.steps || budget_in.rows || budget_in.seconds
                ? ""
                : " (a tolerance alone is capped at 1000 sweeps' worth of rows)");

@@ -23,6 +23,10 @@ struct Budget {
   std::optional<long long> rows;   // form-factor rows
   std::optional<double> seconds;   // solver seconds (metric evaluation excluded)
   std::optional<double> tol;       // certified relative error bound ||B-B*||_inf / max B*
+  // The tolerance is relative to the reflected light, max(B* - E), instead of max B*. A scene
+  // lit by a tiny bright lamp has max B* at the lamp: a bound of 1e-9 of it can leave the room
+  // (B - E) several per cent off (docs/stability.md, the tiny-light column).
+  bool tol_of_reflected = false;
 
   bool empty() const { return !steps && !rows && !seconds && !tol; }
   std::string describe() const;
@@ -63,6 +67,10 @@ struct RunResult {
   ErrorMetrics final_display_errors;    // on the mean of the channels, display()
   ReflectedRms final_reflected;         // on the mean of the channels, solution() - E
   double final_bound_relative = 0.0;    // certified ||B-B*||_inf / max B*, if a matrix exists
+  // The same bound relative to the reflected light: ||B-B*||_inf / max(B* - E); NaN without a
+  // reference or when nothing is reflected.
+  double final_bound_relative_reflected = 0.0;
+  bool tolerance_of_reflected = false;  // the tolerance was relative to max(B* - E)
   // With a tolerance in the budget: whether the certified bound reached it. False means another
   // budget (or the 1,000-sweep cap of a tolerance alone) stopped the run first; `radlab solve`
   // then exits 5 (docs/outputs.md).

@@ -43,6 +43,14 @@ class FormFactorMethod {
   virtual std::vector<std::string> left_out() const { return {}; }
   // Fills out[j] = F_ij for all j (out.size() == mesh size). Thread-safe.
   virtual void row(size_t i, std::span<double> out, RowCost& cost) const = 0;
+  // The receivers [lo, hi) of row i alone: out[j] = F_ij for j in [lo, hi), the same bits as
+  // row() gives them, other entries untouched; thread-safe. A method whose row is one indivisible
+  // computation (the hemicube's z-buffer) returns false and does nothing; row_in_parallel
+  // (formfactor/parallel_row.h) then calls row().
+  virtual bool row_part(size_t /*i*/, size_t /*lo*/, size_t /*hi*/, std::span<double> /*out*/,
+                        RowCost& /*cost*/) const {
+    return false;
+  }
   // Bracket a computation of every row (build_matrix): between them a method may keep work that
   // the other row of a pair can reuse (raycast keeps V_ij for V_ji). Results are the same as
   // row by row; only the cost changes. Not thread-safe themselves.

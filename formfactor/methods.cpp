@@ -25,11 +25,13 @@ const std::vector<FormFactorMethodInfo>& form_factor_methods() {
         {"weights",
          "midpoint: classic delta form factors; exact: integrated pixel weights (sum 1)"}}},
       {"exact",
-       "unoccluded form factors to ~1e-9 by adaptive quadrature of Lambert's formula; refuses "
-       "scenes that can occlude",
+       "form factors to ~1e-9 by adaptive quadrature of Lambert's formula; refuses scenes that "
+       "can occlude unless visibility=clip (exact shadows) or rays",
        {{"tolerance", "1e-10: relative quadrature error per pair"},
         {"max_depth", "16: subdivision levels of the adaptive rule"},
-        {"visibility", "refuse: exit 3 if anything can occlude; rays: multiply by raycast V"},
+        {"visibility",
+         "refuse: exit 3 if anything can occlude; rays: multiply by raycast V; clip: clip j by "
+         "the occluders' shadows at every quadrature point (deterministic)"},
         {"rays", "64: visibility rays per pair that may be blocked (visibility=rays only)"},
         {"seed", "0: seed of the visibility points (visibility=rays only)"}}},
   };

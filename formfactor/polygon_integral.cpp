@@ -101,11 +101,20 @@ struct Integrand {
   const Vec3& normal;
   const PolygonRef& to;
   long long* evaluations;
-  double to_shortest_edge;  // the smallest feature of P_j a cell must resolve
+  double to_shortest_edge;                // the smallest feature of P_j a cell must resolve
+  const PointIntegrand* point = nullptr;  // another integrand in place of F_{dx->to}
   // Integral over the cell (not normalised): area * mean of F_{dx->to} by the 3x3 Gauss rule.
   double operator()(const Quad& c) const {
     const double a = cell_area(c);
-    return a > 0.0 ? a * rule_on(c, normal, to, 3, evaluations) : 0.0;
+    if (!(a > 0.0)) return 0.0;
+    if (!point) return a * rule_on(c, normal, to, 3, evaluations);
+    thread_local QuadratureRule rule;
+    element_quadrature(c, 3, rule);
+    if (evaluations) *evaluations += static_cast<long long>(rule.size());
+    double sum = 0.0;
+    for (size_t k = 0; k < rule.size(); ++k)
+      sum += rule.weight[k] * (*point)(Vec3(rule.x[k], rule.y[k], rule.z[k]));
+    return a * sum;
   }
 };
 
@@ -203,6 +212,13 @@ double polygon_form_factor_fixed(const PolygonRef& from, const PolygonRef& to, i
 double polygon_form_factor_adaptive(const PolygonRef& from, const PolygonRef& to,
                                     double relative_tolerance, double absolute_floor, int max_depth,
                                     long long* evaluations) {
+  return polygon_integral_adaptive(from, to, nullptr, relative_tolerance, absolute_floor, max_depth,
+                                   evaluations);
+}
+
+double polygon_integral_adaptive(const PolygonRef& from, const PolygonRef& to,
+                                 const PointIntegrand* integrand, double relative_tolerance,
+                                 double absolute_floor, int max_depth, long long* evaluations) {
   const std::span<const Vec3> c = from.corners;
   const double area = cell_area(c);
   if (!(area > 0.0)) return 0.0;
@@ -220,7 +236,7 @@ double polygon_form_factor_adaptive(const PolygonRef& from, const PolygonRef& to
   for (size_t k = 0; k < to.corners.size(); ++k)
     shortest =
         std::min(shortest, glm::distance(to.corners[k], to.corners[(k + 1) % to.corners.size()]));
-  const Integrand f{from.normal, to, evaluations, shortest};
+  const Integrand f{from.normal, to, evaluations, shortest, integrand};
   return integrate_cells(roots, f, relative_tolerance, absolute_floor * area, max_depth) / area;
 }
 

@@ -10,6 +10,7 @@
 // collinear corners) contribute nothing and cost nothing.
 #pragma once
 
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -36,6 +37,15 @@ double polygon_form_factor_fixed(const PolygonRef& from, const PolygonRef& to, i
 double polygon_form_factor_adaptive(const PolygonRef& from, const PolygonRef& to,
                                     double relative_tolerance, double absolute_floor, int max_depth,
                                     long long* evaluations = nullptr);
+
+// The same adaptive rule with another integrand g(x) over P_i in place of F_{dx->P_j} (null:
+// F_{dx->P_j} itself): the mean of g over P_i. `to` still steers the refinement near P_j. For
+// integrands bounded by F_{dx->P_j} (the visible part of P_j, exact.h's clip mode).
+using PointIntegrand = std::function<double(const Vec3&)>;
+double polygon_integral_adaptive(const PolygonRef& from, const PolygonRef& to,
+                                 const PointIntegrand* integrand, double relative_tolerance,
+                                 double absolute_floor, int max_depth,
+                                 long long* evaluations = nullptr);
 
 // The integrand F_{dx -> P_j} is zero for x behind P_j's plane and jumps there when P_i straddles
 // that plane (elements not split where another polygon stands on them, e.g. a box on a floor):

@@ -273,4 +273,10 @@ double RaycastFormFactors::largest_row_sampling_error() const {
   return largest;
 }
 
+bool RaycastFormFactors::row_part(size_t i, size_t lo, size_t hi, std::span<double> out,
+                                  RowCost& cost) const {
+  for (size_t j = lo; j < hi; ++j) out[j] = pair(i, j, cost);
+  return true;
+}
+
 }  // namespace radlab

@@ -54,6 +54,8 @@ class RaycastFormFactors final : public FormFactorMethod {
   std::string parameters() const override { return options_.canonical(); }
   std::vector<std::string> left_out() const override;
   void row(size_t i, std::span<double> out, RowCost& cost) const override;
+  bool row_part(size_t i, size_t lo, size_t hi, std::span<double> out,
+                RowCost& cost) const override;
   // A build of every row traces each pair once: V_ji reuses V_ij (Visibility::remember_pairs).
   void begin_all_rows() const override { visibility_.remember_pairs(true); }
   void end_all_rows() const override { visibility_.remember_pairs(false); }

@@ -330,6 +330,18 @@ int64_t ShaftCuller::first_blocker(size_t i, size_t j) const {
   return element_blocker(a, b, entry.ids.data(), entry.ids.size());
 }
 
+void ShaftCuller::blockers(size_t i, size_t j, std::vector<uint32_t>& out) const {
+  out.clear();
+  if (nodes_.empty()) return;
+  const size_t a = std::min(i, j), b = std::max(i, j);
+  const uint32_t pa = element_polygon_[a], pb = element_polygon_[b];
+  const PairEntry& entry = pair_entry(std::min(pa, pb), std::max(pa, pb));
+  if (entry.traverse)
+    element_blocker(a, b, nullptr, 0, &out);
+  else if (!entry.ids.empty())
+    element_blocker(a, b, entry.ids.data(), entry.ids.size(), &out);
+}
+
 int64_t ShaftCuller::element_level_blocker(size_t i, size_t j) const {
   if (nodes_.empty()) return -1;
   return element_blocker(std::min(i, j), std::max(i, j), nullptr, 0);
@@ -337,7 +349,8 @@ int64_t ShaftCuller::element_level_blocker(size_t i, size_t j) const {
 
 // The element-level test of the pair a < b against the polygons ids[0, count), or against all
 // polygons but a's and b's through the hierarchy when ids is null.
-int64_t ShaftCuller::element_blocker(size_t a, size_t b, const uint32_t* ids, size_t count) const {
+int64_t ShaftCuller::element_blocker(size_t a, size_t b, const uint32_t* ids, size_t count,
+                                     std::vector<uint32_t>* all) const {
   const uint32_t pa = element_polygon_[a], pb = element_polygon_[b];
   const Box& A = element_box_[a];
   const Box& B = element_box_[b];
@@ -384,9 +397,10 @@ int64_t ShaftCuller::element_blocker(size_t a, size_t b, const uint32_t* ids, si
         completed = true;
       }
       if (box_outside(d.box) || corners_outside(d)) continue;
-      return int64_t(id);
+      if (!all) return int64_t(id);
+      all->push_back(id);
     }
-    return -1;
+    return all && !all->empty() ? int64_t(all->front()) : -1;
   }
 
   complete();
@@ -397,8 +411,9 @@ int64_t ShaftCuller::element_blocker(size_t a, size_t b, const uint32_t* ids, si
          const PolygonData& d = polygons_[id];
          if (outside_union(d.box, shaft, eps) || box_outside(d.box) || corners_outside(d))
            return false;
-         blocker = int64_t(id);
-         return true;
+         if (blocker < 0) blocker = int64_t(id);
+         if (all) all->push_back(id);
+         return !all;
        });
   return blocker;
 }

@@ -81,6 +81,10 @@ class ShaftCuller {
   // The first polygon found that may block a segment between i and j, or -1 when none can.
   int64_t first_blocker(size_t i, size_t j) const;
 
+  // Every polygon that may block a segment between i and j (the same tests as first_blocker, not
+  // stopping at the first), in an order that depends only on {i, j}. Empty when none can.
+  void blockers(size_t i, size_t j, std::vector<uint32_t>& out) const;
+
   size_t polygon_count() const { return polygons_.size(); }
 
   // The element-level test alone (no polygon-pair tier): the first polygon other than i's and
@@ -123,7 +127,9 @@ class ShaftCuller {
   template <class NodeOutside, class Visit>
   bool walk(NodeOutside&& node_outside, Visit&& visit) const;
   const PairEntry& pair_entry(uint32_t p, uint32_t q) const;
-  int64_t element_blocker(size_t a, size_t b, const uint32_t* ids, size_t count) const;
+  // `all`, if given, receives every polygon not ruled out (the walk does not stop at the first).
+  int64_t element_blocker(size_t a, size_t b, const uint32_t* ids, size_t count,
+                          std::vector<uint32_t>* all = nullptr) const;
 
   double epsilon_;
   uint64_t serial_ = 0;  // tells this culler's entries in the per-thread cache from others'

@@ -1,11 +1,16 @@
 #include "solvers/kernels.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
 #include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <vector>
 
 // The AVX2 versions use GCC/Clang vector extensions inside functions compiled for AVX2 only;
 // their 32-byte vector values never cross a call boundary (every helper is always_inline), so
@@ -490,11 +495,44 @@ Argmax shoot_flags(const T* F, size_t lo, size_t hi, const double* k, double cs,
 }
 
 template <class T>
-Argmax shoot_dispatch(const T* F, size_t lo, size_t hi, const double* k, double cs,
-                      const ShotTargets& t, bool select) {
+Argmax shoot_serial(const T* F, size_t lo, size_t hi, const double* k, double cs,
+                    const ShotTargets& t, bool select) {
   if (lo >= hi) return {};
   if (t.channels == 1) return shoot_flags<T, 1>(F, lo, hi, k, cs, t, select);
   return shoot_flags<T, 3>(F, lo, hi, k, cs, t, select);
+}
+
+std::atomic<size_t>& parallel_minimum() {
+  static std::atomic<size_t> minimum{kDefaultParallelShotMinimum};
+  return minimum;
+}
+
+// A long shot split over threads at fixed receiver boundaries (multiples of kShotChunk from 0,
+// whatever the thread count): every receiver's update is the same arithmetic wherever it runs,
+// and the pieces' maxima are combined in index order with a strict `>`, which keeps the lowest
+// index of the largest priority, as the serial pass does. So the same bits on any thread count.
+template <class T>
+Argmax shoot_dispatch(const T* F, size_t lo, size_t hi, const double* k, double cs,
+                      const ShotTargets& t, bool select) {
+  if (hi <= lo || hi - lo < parallel_minimum().load(std::memory_order_relaxed) ||
+      tbb::this_task_arena::max_concurrency() < 2)
+    return shoot_serial(F, lo, hi, k, cs, t, select);
+  const size_t first = lo / kShotChunk, last = (hi - 1) / kShotChunk;
+  std::vector<Argmax> best(last - first + 1);
+  tbb::this_task_arena::isolate([&] {
+    tbb::parallel_for(tbb::blocked_range<size_t>(first, last + 1, 1),
+                      [&](const tbb::blocked_range<size_t>& r) {
+                        for (size_t c = r.begin(); c != r.end(); ++c) {
+                          const size_t a = std::max(lo, c * kShotChunk);
+                          const size_t b = std::min(hi, (c + 1) * kShotChunk);
+                          best[c - first] = shoot_serial(F, a, b, k, cs, t, select);
+                        }
+                      });
+  });
+  Argmax result;
+  for (const Argmax& b : best)
+    if (b.value > result.value) result = b;
+  return result;
 }
 
 }  // namespace
@@ -558,6 +596,10 @@ void unshot_power(const ShotTargets& t, size_t n, bool clamp_negative, double* o
       for (size_t j = 0; j < n; ++j) s[j % kLanes] += t.area[j] * u[j];
     out[c] = combine(s);
   }
+}
+
+size_t set_parallel_shot_minimum(size_t receivers) {
+  return parallel_minimum().exchange(receivers);
 }
 
 bool use_vector_kernels(bool enable) {

@@ -76,6 +76,15 @@ Argmax shoot(const float* F, size_t lo, size_t hi, const double* k, double cover
 Argmax shoot(const double* F, size_t lo, size_t hi, const double* k, double coverage_scale,
              const ShotTargets& targets, bool select);
 
+// Shots over at least set_parallel_shot_minimum() receivers are split over threads in pieces of
+// kShotChunk receivers at fixed boundaries: the same bits on any number of threads. Off by default
+// (kDefaultParallelShotMinimum = SIZE_MAX): on the 2-core machine it was measured on (shared,
+// load ~19) the split gained no wall time at 4,096-262,144 receivers and cost up to 1.3x the CPU
+// (docs/performance.md, bench/bench_threads.cpp). Returns the previous minimum.
+inline constexpr size_t kShotChunk = 4096;
+inline constexpr size_t kDefaultParallelShotMinimum = std::numeric_limits<size_t>::max();
+size_t set_parallel_shot_minimum(size_t receivers);
+
 // The largest priority over [lo, hi) without changing anything (after gathers, or at init).
 Argmax max_priority(size_t lo, size_t hi, const ShotTargets& targets);
 

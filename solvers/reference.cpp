@@ -14,6 +14,7 @@
 
 #include "core/error.h"
 #include "core/log.h"
+#include "solvers/dense_lu.h"
 
 namespace radlab {
 namespace {
@@ -97,22 +98,13 @@ class LinearSolve {
 
 class DenseLu final : public LinearSolve {
  public:
-  DenseLu(const FormFactorMatrix& F, std::span<const double> rho) {
-    const auto n = Eigen::Index(F.size());
-    Eigen::MatrixXd M(n, n);
-    for (Eigen::Index i = 0; i < n; ++i)
-      for (Eigen::Index j = 0; j < n; ++j)
-        M(i, j) = (i == j ? 1.0 : 0.0) - rho[size_t(i)] * F.at(size_t(i), size_t(j));
-    lu_.compute(M);
-  }
-  void solve(const std::vector<double>& b, std::vector<double>& x) override {
-    Eigen::Map<const Eigen::VectorXd> rhs(b.data(), Eigen::Index(b.size()));
-    Eigen::VectorXd solution = lu_.solve(rhs);
-    x.assign(solution.data(), solution.data() + solution.size());
-  }
+  DenseLu(const FormFactorMatrix& F, std::span<const double> rho)
+      : lu_(F.size(),
+            [&](size_t i, size_t j) { return (i == j ? 1.0 : 0.0) - rho[i] * F.at(i, j); }) {}
+  void solve(const std::vector<double>& b, std::vector<double>& x) override { lu_.solve(b, x); }
 
  private:
-  Eigen::PartialPivLU<Eigen::MatrixXd> lu_;
+  BlockedLu lu_;  // solvers/dense_lu.h: blocked, parallel, the same bits on any thread count
 };
 
 // Restarted GMRES(m) with modified Gram–Schmidt and Givens rotations (Saad & Schultz 1986).

@@ -31,6 +31,7 @@
 #include "core/radiosity.h"
 #include "formfactor/form_factor_method.h"
 #include "formfactor/matrix.h"
+#include "formfactor/parallel_row.h"
 #include "scene/mesh.h"
 #include "solvers/patches.h"
 
@@ -71,7 +72,7 @@ class System {
     thread_local std::vector<double> scratch;
     scratch.resize(size());
     RowCost cost;
-    method_->row(i, scratch, cost);
+    row_in_parallel(*method_, i, scratch, cost);
     rays_used_.fetch_add(cost.rays, std::memory_order_relaxed);
     fn(static_cast<const double*>(scratch.data()));
   }

@@ -176,7 +176,7 @@ TEST(Cli, ToleranceNotReachedExitsFiveAfterWritingEverything) {
       "--solver gauss-seidel --tol 1e-10 --trace " +
       dir.file("t.csv"));
   EXPECT_EQ(r.code, 5) << r.output;
-  EXPECT_OUTPUT_HAS(r, "tolerance 1e-10 not reached");
+  EXPECT_OUTPUT_HAS(r, "tolerance 1e-10 of max B* not reached");
   std::ifstream json(dir.file("t.run.json"));
   std::stringstream text;
   text << json.rdbuf();

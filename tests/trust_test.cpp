@@ -164,7 +164,7 @@ TEST(TrustTolerance, ToleranceNotReachedIsReported) {
   EXPECT_TRUE(r.tolerance_asked);
   EXPECT_FALSE(r.tolerance_reached);
   EXPECT_GT(r.final_bound_relative, 1e-10);
-  EXPECT_NE(r.tolerance_message.find("tolerance 1e-10 not reached"), std::string::npos)
+  EXPECT_NE(r.tolerance_message.find("tolerance 1e-10 of max B* not reached"), std::string::npos)
       << r.tolerance_message;
 
   // summary.csv: the appended column says false (true when reached, empty without --tol).

@@ -1,0 +1,229 @@
+// Occluded form factors by shadow clipping (formfactor/visible_polygon.h, `exact` with
+// visibility=clip): closed forms where the visible part is a rectangle, full occlusion, the
+// unoccluded case, convergence as the tolerance falls, and reciprocity of two independent
+// integrations (over i with shadows on j, over j with shadows on i).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <vector>
+
+#include "core/param_bag.h"
+#include "formfactor/exact.h"
+#include "formfactor/point_polygon.h"
+#include "formfactor/symmetric_build.h"
+#include "formfactor/visible_polygon.h"
+#include "scene/mesh.h"
+#include "tests/test_support.h"
+
+namespace radlab {
+namespace {
+
+using testing::scene_of;
+
+// Axis-aligned rectangle [x0,x1] x [y0,y1] at height z, front facing up (+z) or down.
+std::vector<Vec3> rect(double x0, double x1, double y0, double y1, double z, bool up) {
+  if (up) return {{x0, y0, z}, {x1, y0, z}, {x1, y1, z}, {x0, y1, z}};
+  return {{x0, y0, z}, {x0, y1, z}, {x1, y1, z}, {x1, y0, z}};
+}
+
+// Howell's catalogue B-3: from a differential area to a parallel rectangle a x b at distance c
+// whose corner lies above it.
+double corner_rectangle(double a, double b, double c) {
+  const double X = a / c, Y = b / c;
+  return (X / std::sqrt(1 + X * X) * std::atan(Y / std::sqrt(1 + X * X)) +
+          Y / std::sqrt(1 + Y * Y) * std::atan(X / std::sqrt(1 + Y * Y))) /
+         (2 * std::numbers::pi);
+}
+
+// Howell's catalogue C-11: directly opposed parallel rectangles a x b at distance c.
+double opposed_rectangles(double a, double b, double c) {
+  const double X = a / c, Y = b / c, pi = std::numbers::pi;
+  const double s = std::sqrt((1 + X * X) * (1 + Y * Y) / (1 + X * X + Y * Y));
+  return 2 / (pi * X * Y) *
+         (std::log(s) + X * std::sqrt(1 + Y * Y) * std::atan(X / std::sqrt(1 + Y * Y)) +
+          Y * std::sqrt(1 + X * X) * std::atan(Y / std::sqrt(1 + X * X)) - X * std::atan(X) -
+          Y * std::atan(Y));
+}
+
+ExactFormFactors clip_method(const Scene& scene, const Mesh& mesh, double tolerance) {
+  ExactOptions options;
+  options.visibility_clip = true;
+  options.tolerance = tolerance;
+  return ExactFormFactors(scene, mesh, options);
+}
+
+// A point under the centre of a square, a smaller square half-way up: the shadow is the square
+// doubled, the visible part a square ring, F = F(whole) - F(shadow) by Howell B-3.
+TEST(VisibleFormFactor, CentredPlateLeavesASquareRing) {
+  const std::vector<Vec3> to = rect(-1, 1, -1, 1, 2.0, false);
+  const std::vector<Vec3> plate = rect(-0.25, 0.25, -0.25, 0.25, 1.0, true);
+  const Occluder occluders[] = {{plate, Vec3(0, 0, 1)}};
+  VisibleScratch scratch;
+  bool blocked = false;
+  const double f = visible_form_factor(Vec3(0.0), Vec3(0, 0, 1), to, Vec3(0, 0, -1), occluders,
+                                       1e-12, scratch, &blocked);
+  const double expected = 4 * (corner_rectangle(1, 1, 2) - corner_rectangle(0.5, 0.5, 2));
+  EXPECT_TRUE(blocked);
+  // The same formula on exact pieces: only rounding separates them.
+  EXPECT_NEAR(f, expected, 1e-13);
+  // Without occluders: Lambert's formula on the whole square, bit for bit.
+  std::vector<Vec3> lambert;
+  EXPECT_EQ(visible_form_factor(Vec3(0.0), Vec3(0, 0, 1), to, Vec3(0, 0, -1), {}, 1e-12, scratch),
+            point_to_polygon_form_factor(Vec3(0.0), Vec3(0, 0, 1), to, Vec3(0, 0, -1), lambert));
+}
+
+// Occluders that miss the cone, or stand in x's plane, cast nothing; one covering everything
+// leaves 0; two overlapping ones are not subtracted twice.
+TEST(VisibleFormFactor, MissesFullCoverAndOverlaps) {
+  const std::vector<Vec3> to = rect(-1, 1, -1, 1, 2.0, false);
+  const Vec3 x(0.0), n(0, 0, 1), down(0, 0, -1);
+  VisibleScratch scratch;
+  std::vector<Vec3> lambert;
+  const double whole = point_to_polygon_form_factor(x, n, to, down, lambert);
+  const std::vector<Vec3> aside = rect(3, 4, 3, 4, 1.0, true);
+  const std::vector<Vec3> standing = {{-5, 0, 0}, {5, 0, 0}, {5, 0, 1.5}, {-5, 0, 1.5}};
+  const Occluder miss[] = {{aside, Vec3(0, 0, 1)}, {standing, Vec3(0, -1, 0)}};
+  bool blocked = true;
+  EXPECT_EQ(visible_form_factor(x, n, to, down, miss, 1e-12, scratch, &blocked), whole);
+  EXPECT_FALSE(blocked);
+  const std::vector<Vec3> big = rect(-2, 2, -2, 2, 1.0, true);
+  const Occluder cover[] = {{big, Vec3(0, 0, 1)}};
+  EXPECT_EQ(visible_form_factor(x, n, to, down, cover, 1e-12, scratch), 0.0);
+  // Two plates whose shadows are [-0.5,0.5]^2 and [0,1] x [-0.5,0.5]: the union is
+  // [-0.5,1] x [-0.5,0.5], four corner rectangles' worth by B-3.
+  const std::vector<Vec3> a = rect(-0.25, 0.25, -0.25, 0.25, 1.0, true);
+  const std::vector<Vec3> b = rect(0.0, 0.5, -0.25, 0.25, 1.0, false);
+  const Occluder two[] = {{a, Vec3(0, 0, 1)}, {b, Vec3(0, 0, -1)}};
+  const double shadow = 2 * (corner_rectangle(0.5, 0.5, 2) + corner_rectangle(1.0, 0.5, 2));
+  EXPECT_NEAR(visible_form_factor(x, n, to, down, two, 1e-12, scratch), whole - shadow, 1e-13);
+}
+
+// Two parallel squares 1 apart; a strip 1e-7 below the upper square hides its half y > 0.5
+// from every point of the lower rectangle [0,1] x [0,0.5]: the visible part is the rectangle
+// directly opposed to it, Howell C-11. The strip's shadow edge moves by at most 0.5e-7 from
+// y = 0.5 over the lower rectangle, changing F by < 1e-7; the tolerance 1e-9 adds 1e-10.
+TEST(ExactClip, StripHidingHalfTheSquareGivesOpposedRectangles) {
+  const Scene scene = scene_of({rect(0, 1, 0, 0.5, 0.0, true), rect(0, 1, 0, 1, 1.0, false),
+                                rect(-1, 2, 0.5, 1.5, 1.0 - 1e-7, false)});
+  const Mesh mesh = build_mesh(scene, {1, 0.0});
+  const ExactFormFactors method = clip_method(scene, mesh, 1e-9);
+  RowCost cost;
+  const double expected = opposed_rectangles(1.0, 0.5, 1.0);
+  EXPECT_NEAR(method.pair(0, 1, cost), expected, 1e-6 * expected);
+  EXPECT_EQ(cost.pairs_traced, 1u);
+  EXPECT_EQ(cost.rays, 0u);
+  // Reciprocity, integrated over the upper square with the strip's shadow on the lower one.
+  const double back = method.pair(1, 0, cost);
+  EXPECT_NEAR(back * 1.0, expected * 0.5, 1e-6 * expected);
+}
+
+// A plate larger than both squares between them: F = 0 exactly, and cheaply.
+TEST(ExactClip, FullyOccludedPairIsZeroAndCheap) {
+  const Scene scene = scene_of(
+      {rect(0, 1, 0, 1, 0.0, true), rect(0, 1, 0, 1, 1.0, false), rect(-1, 2, -1, 2, 0.5, true)});
+  const Mesh mesh = build_mesh(scene, {1, 0.0});
+  const ExactFormFactors method = clip_method(scene, mesh, 1e-10);
+  RowCost cost;
+  EXPECT_EQ(method.pair(0, 1, cost), 0.0);
+  EXPECT_EQ(method.pair(1, 0, cost), 0.0);
+  // The plate hides j from every corner of i (the umbra test): no quadrature at all.
+  EXPECT_LE(cost.kernel_evaluations, 2u * 4);
+}
+
+// Unoccluded pairs equal the unoccluded method to the tolerance, and only the pairs the plate
+// really blocks are reduced. Floor and ceiling 4 x 4, a
+// small plate half-way: the segments of a pair cross z = 0.5 in the average of the two
+// elements' rectangles, so the plate blocks exactly the pairs whose average overlaps it.
+TEST(ExactClip, UnoccludedPairsEqualTheUnoccludedMethod) {
+  const std::vector<Vec3> floor = rect(0, 1, 0, 1, 0.0, true), ceiling = rect(0, 1, 0, 1, 1, false);
+  const Scene open = scene_of({floor, ceiling});
+  const Mesh open_mesh = build_mesh(open, {4, 0.0});
+  ExactOptions plain;
+  plain.tolerance = 1e-10;
+  const ExactFormFactors reference(open, open_mesh, plain);
+  const double p0 = 0.3, p1 = 0.45;
+  const Scene with_plate = scene_of({floor, ceiling, rect(p0, p1, p0, p1, 0.5, true)});
+  const Mesh mesh = build_mesh(with_plate, {4, 0.0});
+  const ExactFormFactors clipped = clip_method(with_plate, mesh, 1e-6);
+  size_t blocked = 0;
+  for (size_t i = 0; i < 16; ++i)
+    for (size_t j = 16; j < 32; ++j) {
+      RowCost a, b;
+      const double expected = reference.pair(i, j, a);
+      const double f = clipped.pair(i, j, b);
+      // The pair's cross-section at z = 0.5: the average of the two elements' boxes.
+      const Vec3 lo = 0.5 * (mesh.centroid[i] + mesh.centroid[j]) - Vec3(0.125, 0.125, 0);
+      const Vec3 hi = lo + Vec3(0.25, 0.25, 0);
+      const bool meets = lo.x < p1 && hi.x > p0 && lo.y < p1 && hi.y > p0;
+      if (meets) {
+        EXPECT_LT(f, expected * (1 - 1e-6)) << i << " " << j;
+        ++blocked;
+      } else {
+        // Both within their tolerance of the exact value (1e-6 and 1e-10 relative).
+        EXPECT_NEAR(f, expected, 2e-6 * expected) << i << " " << j;
+      }
+    }
+  EXPECT_GT(blocked, 0u);
+}
+
+// A plate half-way between two unit squares, off centre so the pair is partly occluded: the
+// error against a tight result falls with the tolerance and stays within the stated budget
+// (tolerance x F), and the two independent integrations satisfy reciprocity to it.
+TEST(ExactClip, ConvergesAsToleranceFallsAndIsReciprocal) {
+  const Scene scene = scene_of({rect(0, 1, 0, 1, 0.0, true), rect(0, 1, 0, 1, 1.0, false),
+                                rect(0.3, 0.9, 0.2, 0.7, 0.45, true)});
+  const Mesh mesh = build_mesh(scene, {1, 0.0});
+  RowCost cost;
+  const double unoccluded = opposed_rectangles(1, 1, 1);
+  const double tight = clip_method(scene, mesh, 1e-8).pair(0, 1, cost);
+  ASSERT_GT(tight, 0.2 * unoccluded);
+  ASSERT_LT(tight, 0.9 * unoccluded);
+  double previous = 1.0;
+  for (double tolerance : {1e-2, 1e-4, 1e-6}) {
+    const ExactFormFactors method = clip_method(scene, mesh, tolerance);
+    const double f = method.pair(0, 1, cost);
+    const double error = std::abs(f - tight);
+    EXPECT_LE(error, tolerance * tight) << tolerance;
+    EXPECT_LE(error, previous) << tolerance;
+    previous = std::max(error, 1e-15);
+    // Equal areas: F_01 = F_10, each within the budget of the exact value.
+    EXPECT_NEAR(method.pair(1, 0, cost), f, 2 * tolerance * tight) << tolerance;
+  }
+}
+
+// The symmetric builder: one integration per unordered pair, the other entry by reciprocity.
+// Against two one-way integrations (build_matrix), every entry within the tolerance of the
+// pair (each side is within 1e-6 relative of the exact value, so they differ by < 2e-6);
+// reciprocity to rounding (one multiplication and one division: a few ulps).
+TEST(SymmetricBuild, EqualsTwoOneWayIntegrationsAndIsReciprocal) {
+  const Scene scene = scene_of({rect(0, 1, 0, 1, 0.0, true), rect(0, 1, 0, 1, 1.0, false),
+                                rect(0.3, 0.9, 0.2, 0.7, 0.45, true), rect(0, 1, 0, 1, 0.3, false)},
+                               0.5, 1.0);
+  // Floor, ceiling, a plate and a lower square, each 2 x 2 (the plate's elements are smaller).
+  Mesh mesh = build_mesh(scene, {2, 0.0});
+  const ExactFormFactors method = clip_method(scene, mesh, 1e-6);
+  BuildReport one_way, symmetric;
+  const FormFactorMatrix full = build_matrix(method, mesh.size(), Precision::kDouble, one_way);
+  const FormFactorMatrix half = build_matrix_symmetric(method, mesh, Precision::kDouble, symmetric);
+  size_t nonzero = 0;
+  for (size_t i = 0; i < mesh.size(); ++i)
+    for (size_t j = 0; j < mesh.size(); ++j) {
+      const double f = full.at(i, j), g = half.at(i, j);
+      EXPECT_NEAR(g, f, 2e-6 * std::max(f, g) + 1e-15) << i << " " << j;
+      EXPECT_NEAR(mesh.area[i] * g, mesh.area[j] * half.at(j, i), 1e-15 * mesh.area[i] * g + 1e-300)
+          << i << " " << j;
+      nonzero += f > 0.0 ? 1 : 0;
+    }
+  EXPECT_GT(nonzero, 20u);
+  // Half the integrals: each unordered pair once.
+  EXPECT_LT(double(symmetric.cost.kernel_evaluations),
+            0.6 * double(one_way.cost.kernel_evaluations));
+  std::printf("evaluations: one-way %llu, symmetric %llu\n",
+              static_cast<unsigned long long>(one_way.cost.kernel_evaluations),
+              static_cast<unsigned long long>(symmetric.cost.kernel_evaluations));
+}
+
+}  // namespace
+}  // namespace radlab
