@@ -2,7 +2,8 @@
 // 30 s on 2 cores and 1 GB): one whole solve (refinement, then gathers to the fixed point) of
 // `hierarchical` on an MGF scene, one element per polygon, with links, leaves, rays and the peak
 // resident memory as counters. The scene is RADLAB_BENCH_SCENE, else RenderPark's classroom
-// (the hospital is ~17x classroom's root pairs without clustering; docs/solvers.md):
+// (the hospital, 12,235 polygons after the loader's overlap repair, is ~4.4x classroom's root
+// pairs without clustering; docs/solvers.md):
 //   build/bench/bench_hierarchical --benchmark_counters_tabular=true
 //   RADLAB_BENCH_SCENE=../shared/scenes/renderpark/hospital/hosp.mgf build/bench/bench_hierarchical
 #include <benchmark/benchmark.h>
@@ -52,6 +53,7 @@ void BM_HierarchicalSolve(benchmark::State& state, double feps) {
   state.counters["links"] = stats["links"];
   state.counters["leaves"] = stats["leaves"];
   state.counters["rays"] = stats["rays"];
+  state.counters["row_evals"] = stats["pass1.row_evaluations"];
   state.counters["refine_s"] = stats["refinement_seconds"];
   state.counters["gather_s"] = stats["gather_seconds"];
   state.counters["passes"] = double(passes);

@@ -31,6 +31,19 @@ std::vector<std::string> split_csv_line(const std::string& line) {
   return fields;
 }
 
+namespace {
+
+// True when `record` ends inside a quoted field: the record continues on the next line (the
+// writer quotes fields holding newlines, e.g. an error message in summary.csv).
+bool inside_quotes(const std::string& record) {
+  bool quoted = false;
+  for (char c : record)
+    if (c == '"') quoted = !quoted;  // a doubled quote toggles twice
+  return quoted;
+}
+
+}  // namespace
+
 CsvTable read_csv(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw InputError(path + ": cannot open file");
@@ -41,11 +54,19 @@ CsvTable read_csv(const std::string& path) {
   table.header = split_csv_line(line);
   int number = 1;
   while (std::getline(in, line)) {
-    ++number;
-    if (line.empty()) continue;
-    auto fields = split_csv_line(line);
+    const int first = ++number;
+    std::string record = line;
+    while (inside_quotes(record)) {
+      if (!std::getline(in, line))
+        throw InputError(path + ":" + std::to_string(first) +
+                         ": a quoted field is not closed before the end of the file");
+      ++number;
+      record += '\n' + line;
+    }
+    if (record.empty()) continue;
+    auto fields = split_csv_line(record);
     if (fields.size() != table.header.size())
-      throw InputError(path + ":" + std::to_string(number) + ": " + std::to_string(fields.size()) +
+      throw InputError(path + ":" + std::to_string(first) + ": " + std::to_string(fields.size()) +
                        " fields, the header has " + std::to_string(table.header.size()));
     table.rows.push_back(std::move(fields));
   }

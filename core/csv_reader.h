@@ -1,4 +1,6 @@
-// Reads a CSV file with a header row (as written by CsvWriter): quoted fields, doubled quotes.
+// Reads a CSV file with a header row (as written by CsvWriter): quoted fields, doubled quotes,
+// and quoted fields spanning lines (a record continues while a quote is open), so whatever
+// CsvWriter writes reads back field for field.
 // Used by `radlab merge` and the tests.
 #pragma once
 
@@ -20,7 +22,7 @@ struct CsvTable {
 // differs from the header's.
 CsvTable read_csv(const std::string& path);
 
-// Splits one CSV line into fields.
+// Splits one CSV record (newlines allowed inside quoted fields) into fields.
 std::vector<std::string> split_csv_line(const std::string& line);
 
 }  // namespace radlab

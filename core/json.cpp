@@ -5,6 +5,7 @@
 
 #include "core/error.h"
 #include "core/output_file.h"
+#include "core/text.h"
 
 namespace radlab {
 
@@ -112,9 +113,7 @@ JsonWriter& JsonWriter::value(double number) {
     out_ += "null";
     return *this;
   }
-  char buffer[40];
-  std::snprintf(buffer, sizeof buffer, "%.17g", number);
-  out_ += buffer;
+  out_ += text::format_double(number);  // shortest round trip
   return *this;
 }
 

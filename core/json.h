@@ -1,5 +1,6 @@
 // A small JSON writer for run.json: objects, arrays, strings, numbers, booleans. Numbers are
-// written with 17 significant digits; non-finite numbers become null (JSON has no NaN).
+// written shortest-round-trip (text::format_double); non-finite numbers become null (JSON has no
+// NaN).
 #pragma once
 
 #include <string>

@@ -38,6 +38,7 @@ const std::string* ParamBag::lookup(const std::string& key) {
 }
 
 double ParamBag::get_double(const std::string& key, double fallback) {
+  defaults_.emplace(key, text::format_double(fallback));
   const std::string* v = lookup(key);
   if (!v) return fallback;
   auto parsed = text::parse_double(*v);
@@ -47,6 +48,7 @@ double ParamBag::get_double(const std::string& key, double fallback) {
 }
 
 long long ParamBag::get_int(const std::string& key, long long fallback) {
+  defaults_.emplace(key, std::to_string(fallback));
   const std::string* v = lookup(key);
   if (!v) return fallback;
   auto parsed = text::parse_int(*v);
@@ -65,6 +67,7 @@ long long ParamBag::get_int(const std::string& key, long long fallback, long lon
 }
 
 bool ParamBag::get_bool(const std::string& key, bool fallback) {
+  defaults_.emplace(key, fallback ? "true" : "false");
   const std::string* v = lookup(key);
   if (!v) return fallback;
   auto parsed = text::parse_bool(*v);
@@ -74,6 +77,7 @@ bool ParamBag::get_bool(const std::string& key, bool fallback) {
 }
 
 std::string ParamBag::get_string(const std::string& key, const std::string& fallback) {
+  defaults_.emplace(key, fallback);
   const std::string* v = lookup(key);
   return v ? *v : fallback;
 }

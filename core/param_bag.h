@@ -50,12 +50,18 @@ class ParamBag {
   // "k=v,k=v" in key order: stable, for run ids and cache keys.
   std::string canonical() const;
 
+  // Every key a getter asked for, with the fallback it was given as text (the first one if asked
+  // twice). Reading an options struct from an empty bag thus lists its parameters and their
+  // defaults from the struct itself (solvers/registry.cpp: `radlab solvers` prints these).
+  const std::map<std::string, std::string>& defaults() const { return defaults_; }
+
  private:
   const std::string* lookup(const std::string& key);
 
   std::string context_;
   std::map<std::string, std::string> values_;
   std::set<std::string> known_;
+  std::map<std::string, std::string> defaults_;
 };
 
 }  // namespace radlab

@@ -83,9 +83,12 @@ std::optional<bool> parse_bool(std::string_view s) {
 std::string format_double(double value) {
   if (std::isnan(value)) return "nan";
   if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
+  // Shortest text that parses back to the same double (0.1 prints as "0.1", not
+  // "0.10000000000000001"; -1e-9 as "-1e-09").
   char buffer[40];
-  std::snprintf(buffer, sizeof buffer, "%.17g", value);
-  return buffer;
+  const auto [end, ec] = std::to_chars(buffer, buffer + sizeof buffer, value);
+  if (ec != std::errc()) return "nan";  // cannot happen: 40 chars hold any double
+  return std::string(buffer, end);
 }
 
 std::string join(const std::vector<std::string>& items, std::string_view separator) {

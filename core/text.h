@@ -1,6 +1,6 @@
 // Small string helpers shared by the readers and the command line: strict number parsing (the
 // whole token must be a number, NaN and infinities are rejected unless asked for) and
-// round-trip formatting of doubles for CSV.
+// shortest round-trip formatting of doubles for CSV, run ids and messages.
 #pragma once
 
 #include <optional>
@@ -21,8 +21,8 @@ std::optional<double> parse_double(std::string_view s);
 std::optional<long long> parse_int(std::string_view s);
 std::optional<bool> parse_bool(std::string_view s);
 
-// "%.17g": doubles survive the trip to text and back exactly. Non-finite values print as
-// "nan", "inf", "-inf".
+// The shortest text that reads back as the same double (std::to_chars): exact round trip, and
+// 0.6 prints as "0.6" in run ids and messages. Non-finite values print as "nan", "inf", "-inf".
 std::string format_double(double value);
 
 // Joins with a separator, e.g. the list of valid keys in an error message.

@@ -16,7 +16,7 @@ namespace radlab::cli {
 void add_scene_options(CLI::App& command, SceneOptions& o) {
   command
       .add_option("scene", o.scene,
-                  "builtin:NAME[:key=value,...] (see `radlab scenes`), or an .obj file")
+                  "builtin:NAME[:key=value,...] (see `radlab scenes`), or an .obj or .mgf file")
       ->required();
   add_mesh_options(command, o);
 }
@@ -54,6 +54,10 @@ void add_mesh_options(CLI::App& command, SceneOptions& o) {
                      "patch per input polygon) or size (patches of edge --patch-size)");
   command.add_option("--patch-size", o.patch_size,
                      "patch edge length in metres, with --patches size");
+  command.add_option("--patch-rows", o.patch_rows,
+                     "two levels: centre (one hemicube at each patch's centre, as the paper; "
+                     "hemicube only), mean (area-weighted mean of the element rows) or auto "
+                     "(default: centre with --ff hemicube, else mean)");
   command.add_flag("--keep-overlaps", o.keep_overlaps,
                    "keep coincident same-facing polygons as they are (default: the later one "
                    "loses the overlap, with a warning)");
@@ -111,6 +115,7 @@ ProblemSpec make_spec(const SceneOptions& scene, const FormFactorOptions& ff) {
                      text::format_double(scene.element_size));
   spec.patches.from = scene.patches;
   spec.patches.size = scene.patch_size;
+  spec.patches.rows = scene.patch_rows;
   spec.patches.validate();
   spec.ff_method = ff.method;
   spec.ff_set = ff.set;

@@ -16,6 +16,7 @@ struct SceneOptions {
   double element_size = 0.0;
   std::string patches = "elements";  // --patches: two levels (solvers/patches.h)
   double patch_size = 0.0;           // --patch-size, with --patches size
+  std::string patch_rows = "auto";   // --patch-rows: centre | mean (solvers/patch_rows.h)
   bool keep_overlaps = false;        // --keep-overlaps: coincident polygons as they are (overlap.h)
 };
 

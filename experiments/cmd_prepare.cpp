@@ -24,6 +24,8 @@
 //           1 ns each. A run: (rows x n + checkpoints x n^2) x channels multiply-adds at 1 ns,
 //           plus the budget's seconds; rows is the budget's rows or steps (a step reads about
 //           one row), or 1000 sweeps (the runner's cap) under a tolerance alone.
+//   Two levels (P patches): P x n patch rows (and their float rounding) instead of the matrix,
+//           the P x P reduced LU; P (centre) or n (mean) rows at n us each + P^3/3 ns.
 //   The workflow multiplies the times by a configurable safety factor.
 #include <unistd.h>
 
@@ -57,17 +59,29 @@ struct ProblemEstimate {
 
 ProblemEstimate estimate_problem(const PlannedProblem& planned) {
   ProblemEstimate e;
+  double patches = 0;
   e.memory_bytes = 256e6;  // the program alone; a problem that fails to load needs no more
   try {
     LoadedScene loaded = load_scene(planned.spec.scene);
     const Mesh mesh = build_mesh(loaded.scene, planned.spec.mesh);
     e.elements = mesh.size();
     e.channels = loaded.scene.is_grey() ? 1 : 3;
+    if (planned.spec.patches.two_level())
+      patches = double(make_patches(loaded.scene, mesh, planned.spec.patches).size());
   } catch (const Error& error) {
     e.error = error.what();
     return e;
   }
   const double n = double(e.elements);
+  if (patches > 0) {  // two levels (docs/solvers.md): P x n patch rows, no n x n matrix
+    const bool float_rows = planned.spec.precision == Precision::kFloat;
+    const bool centre = planned.spec.patches.resolved_rows(planned.spec.ff_method) == "centre";
+    e.matrix_bytes = patches * n * (float_rows ? 4.0 + 8.0 : 8.0);
+    e.memory_bytes = e.matrix_bytes + 8.0 * patches * (patches + n) + 256e6;
+    e.prepare_seconds =
+        (centre ? patches : n) * n * 1e-6 + patches * patches * patches / 3.0 * 1e-9;
+    return e;
+  }
   // The matrix the solvers read, plus (with float storage) the double matrix the reference is
   // certified against, which prepare_problem keeps beside it.
   const bool float_rows = planned.spec.precision == Precision::kFloat;

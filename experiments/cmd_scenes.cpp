@@ -12,7 +12,8 @@ namespace radlab::cli {
 void add_scenes_command(CLI::App& app) {
   auto* command = app.add_subcommand("scenes", "list the built-in scenes, or describe one scene");
   auto options = std::make_shared<SceneOptions>();
-  command->add_option("scene", options->scene, "a scene to describe (builtin:NAME or a file)");
+  command->add_option("scene", options->scene,
+                      "a scene to describe (builtin:NAME, or an .obj or .mgf file)");
   add_mesh_options(*command, *options);
   command->callback([options]() {
     if (options->scene.empty()) {
@@ -23,7 +24,9 @@ void add_scenes_command(CLI::App& app) {
           std::printf("      %-12s default %-6s %s\n", p.name.c_str(), p.default_value.c_str(),
                       p.help.c_str());
       }
-      std::printf("\nFiles: .obj with .mtl (Kd = reflectance, Ke = emission).\n");
+      std::printf(
+          "\nFiles: .obj with .mtl (Kd = reflectance, Ke = emission), or .mgf (Ward's Materials "
+          "and Geometry Format, as in the RenderPark scenes; docs/scenes.md).\n");
       return;
     }
     LoadedScene loaded = load_scene(options->scene);

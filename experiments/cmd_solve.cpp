@@ -7,7 +7,10 @@
 #include "core/error.h"
 #include "core/log.h"
 #include "core/output_file.h"
+#include "core/text.h"
 #include "experiments/cli_common.h"
+#include "experiments/experiment_spec.h"
+#include "experiments/images.h"
 #include "experiments/outputs.h"
 #include "experiments/runner.h"
 #include "experiments/stand_in_reference.h"
@@ -38,18 +41,19 @@ struct SolveOptions {
   double reference_feps = 0.0025, reference_aeps = 1e-5;
 };
 
-std::string run_id_for(const SolveOptions& o, const std::string& params) {
-  return o.solver + "/scene:" + o.scene.scene + (params.empty() ? "" : "/" + params);
+// The same format as `radlab run`'s (experiment_spec.h), so one run reads the same in both.
+std::string run_id_for(const SolveOptions& o, const ParamBag& bag) {
+  return make_run_id(o.solver, "scene:" + scene_label(o.scene.scene), bag.values());
 }
 
 void save_image(const Problem& problem, const Radiosity& field, const std::string& path, int width,
-                int height) {
+                int height, const ExrAttributes& provenance) {
   EmbreeScene embree(problem.mesh);
   const Camera camera =
       problem.scene().camera ? *problem.scene().camera : default_camera(problem.mesh);
   Image image = render_radiosity(problem.mesh, embree, field, camera, width, height);
   ensure_parent_folder(path);
-  write_via_temporary(path, [&](const std::string& temp) { write_exr(temp, image); });
+  write_via_temporary(path, [&](const std::string& temp) { write_exr(temp, image, provenance); });
   std::string png = std::filesystem::path(path).replace_extension(".png").string();
   write_via_temporary(
       png, [&](const std::string& temp) { write_png(temp, image, auto_exposure(image)); });
@@ -74,13 +78,14 @@ void run(const SolveOptions& o, int argc, char** argv) {
   }
   if (o.seconds_given) {
     if (!(o.seconds > 0.0 && std::isfinite(o.seconds)))
-      throw UsageError("--seconds must be a finite number > 0, got " + std::to_string(o.seconds));
+      throw UsageError("--seconds must be a finite number > 0, got " +
+                       text::format_double(o.seconds));
     budget.seconds = o.seconds;
   }
   if (o.tol_given) {
     if (!(o.tol > 0.0 && o.tol < 1.0))
       throw UsageError("--tol must lie in (0,1) (a bound relative to max B*), got " +
-                       std::to_string(o.tol));
+                       text::format_double(o.tol));
     budget.tol = o.tol;
     budget.tol_of_reflected = o.tol_of == "reflected";
   }
@@ -105,7 +110,8 @@ void run(const SolveOptions& o, int argc, char** argv) {
   auto problem = prepare_problem(spec);
   if (o.reference == kHierarchicalFineReference) {
     log::info("reference: NOT certified: a finer hierarchical run (feps " +
-              std::to_string(o.reference_feps) + ", aeps " + std::to_string(o.reference_aeps) +
+              text::format_double(o.reference_feps) + ", aeps " +
+              text::format_double(o.reference_aeps) +
               ") stands in for it (the scene is too large for the certified one)");
     problem->reference =
         hierarchical_fine_reference(*problem->system, o.reference_feps, o.reference_aeps);
@@ -116,7 +122,7 @@ void run(const SolveOptions& o, int argc, char** argv) {
     ensure_parent_folder(o.trace);
     trace = std::make_unique<TraceWriter>(o.trace);
   }
-  RunLabels labels{run_id_for(o, bag.canonical()), o.scene.scene, o.solver, bag.canonical()};
+  RunLabels labels{run_id_for(o, bag), o.scene.scene, o.solver, bag.canonical()};
   RunResult result =
       run_solver(*solver, *problem, budget, CheckpointSchedule{}, labels, trace.get());
   if (trace) trace->close();
@@ -166,7 +172,8 @@ void run(const SolveOptions& o, int argc, char** argv) {
   if (!o.trace.empty()) log::info("wrote " + o.trace);
   if (!o.image.empty())
     save_image(*problem, o.display_image ? solver->display() : solver->solution(), o.image, o.width,
-               o.height);
+               o.height,
+               run_provenance(labels.run_id, o.scene.scene, o.solver, result.steps, result.rows));
 
   if (!json_path.empty()) {
     JsonWriter json;
@@ -177,7 +184,7 @@ void run(const SolveOptions& o, int argc, char** argv) {
     write_problem_info(json, *problem);
     write_solver_info(json, o.solver, bag.values());
     write_run_result(json, budget, result);
-    write_solver_statistics(json, *solver);
+    write_solver_statistics(json, *solver, problem.get());
     json.end_object();
     ensure_parent_folder(json_path);
     json.save(json_path);

@@ -164,11 +164,13 @@ ExperimentSpec read_experiment(const std::string& path) {
   }
 
   auto solvers = root["solvers"];
+  bool all_solvers = false;  // "all": narrowed to what runs on the problem, once [patches] is read
   if (!solvers) throw InputError(path + ": 'solvers' is required (names, or [\"all\"])");
   for (const std::string& name :
        r.list(*solvers.node(), [&](const toml::node& n) { return r.string(n, "solver"); })) {
     if (name == "all") {
       for (const SolverInfo& info : solver_registry()) spec.solvers.push_back({info.name, {}});
+      all_solvers = true;
       continue;
     }
     try {
@@ -217,9 +219,10 @@ ExperimentSpec read_experiment(const std::string& path) {
   }
 
   if (const toml::table* pt = root["patches"].as_table()) {
-    r.only(*pt, {"from", "size"}, "[patches]");
+    r.only(*pt, {"from", "size", "rows"}, "[patches]");
     if (auto n = (*pt)["from"]) spec.patches.from = r.string(*n.node(), "patches.from");
     if (auto n = (*pt)["size"]) spec.patches.size = r.number(*n.node(), "patches.size");
+    if (auto n = (*pt)["rows"]) spec.patches.rows = r.string(*n.node(), "patches.rows");
     try {
       spec.patches.validate();
     } catch (const UsageError& e) {
@@ -227,6 +230,17 @@ ExperimentSpec read_experiment(const std::string& path) {
     }
   } else if (root["patches"]) {
     r.fail(*root["patches"].node(), "'patches' must be a table");
+  }
+  if (all_solvers) {
+    // "all" means every solver that runs on this problem's system (docs/experiments.md):
+    // adaptive-shooting needs patches (on one level it is sorted-shooting again); on two levels
+    // conjugate-gradient needs a reciprocal system (K is not: A_e K_ej != A_j K_je) and
+    // hierarchical solves its own one-level system.
+    const bool two = spec.patches.two_level();
+    std::erase_if(spec.solvers, [two](const SolverSweep& s) {
+      return two ? s.name == "conjugate-gradient" || s.name == "hierarchical"
+                 : s.name == "adaptive-shooting";
+    });
   }
 
   if (const toml::table* b = root["budget"].as_table()) {
@@ -330,12 +344,19 @@ ExperimentSpec read_experiment(const std::string& path) {
   return spec;
 }
 
-namespace {
-
 std::string scene_label(const std::string& scene) {
   if (text::starts_with(scene, "builtin:")) return scene.substr(8);
   return std::filesystem::path(scene).stem().string();
 }
+
+std::string make_run_id(const std::string& solver, const std::string& problem_label,
+                        const std::map<std::string, std::string>& parameters) {
+  std::string id = solver + "/" + problem_label;
+  for (const auto& [k, v] : parameters) id += "/" + k + ":" + v;
+  return id;
+}
+
+namespace {
 
 // All combinations of the parameter axes, keys in order.
 std::vector<std::map<std::string, std::string>> combinations(
@@ -403,8 +424,7 @@ SweepPlan plan_sweep(const ExperimentSpec& spec) {
             run.problem = problem_index;
             run.solver = solver.name;
             run.parameters = parameters;
-            run.run_id = solver.name + "/" + problem.label;
-            for (const auto& [k, v] : parameters) run.run_id += "/" + k + ":" + v;
+            run.run_id = make_run_id(solver.name, problem.label, parameters);
             plan.runs.push_back(std::move(run));
           }
       }

@@ -73,4 +73,11 @@ struct SweepPlan {
 
 SweepPlan plan_sweep(const ExperimentSpec& spec);
 
+// The one run-id format of `radlab run` and `radlab solve`:
+// solver/scene:NAME[/subdiv:K][/seed:S]/k:v... where NAME is a builtin's spec after "builtin:"
+// or a scene file's stem, `problem_label` is "scene:NAME..." and the parameters are as given.
+std::string scene_label(const std::string& scene);
+std::string make_run_id(const std::string& solver, const std::string& problem_label,
+                        const std::map<std::string, std::string>& parameters);
+
 }  // namespace radlab

@@ -3,6 +3,8 @@
 #include <cstdio>
 
 #include "core/output_file.h"
+#include "core/version.h"
+#include "experiments/outputs.h"
 #include "formfactor/embree_scene.h"
 #include "metrics/error_metrics.h"
 #include "render/exr_io.h"
@@ -24,7 +26,19 @@ ImageMaker::ImageMaker(const Problem& problem, const ImageSpec& spec)
 
 ImageMaker::~ImageMaker() = default;
 
-void ImageMaker::save(const Solver& solver, long long step, const std::string& stem) const {
+ExrAttributes run_provenance(const std::string& run_id, const std::string& scene,
+                             const std::string& solver, long long step, unsigned long long rows) {
+  return {{"radlab.run_id", run_id},
+          {"radlab.scene", scene},
+          {"radlab.solver", solver},
+          {"radlab.step", std::to_string(step)},
+          {"radlab.rows", std::to_string(rows)},
+          {"radlab.git_sha", build_git_sha()},
+          {"radlab.version", kVersion}};
+}
+
+void ImageMaker::save(const Solver& solver, long long step, const std::string& stem,
+                      const ExrAttributes& provenance) const {
   char suffix[32];
   std::snprintf(suffix, sizeof suffix, "_step%06lld", step);
   const std::string base = stem + suffix;
@@ -32,8 +46,8 @@ void ImageMaker::save(const Solver& solver, long long step, const std::string& s
   Image image = render_radiosity(problem_.mesh, *embree_, display, camera_, spec_.width,
                                  spec_.height, spec_.smooth);
   // Each file appears complete or not at all (core/output_file.h).
-  auto exr = [](const std::string& path, const Image& im) {
-    write_via_temporary(path, [&](const std::string& temp) { write_exr(temp, im); });
+  auto exr = [&provenance](const std::string& path, const Image& im) {
+    write_via_temporary(path, [&](const std::string& temp) { write_exr(temp, im, provenance); });
   };
   auto png_ldr = [](const std::string& path, const Image& im) {
     write_via_temporary(path, [&](const std::string& temp) { write_png_ldr(temp, im); });

@@ -9,12 +9,18 @@
 
 #include "experiments/experiment_spec.h"
 #include "experiments/problem.h"
+#include "render/exr_io.h"
 #include "render/image.h"
 #include "solvers/solver.h"
 
 namespace radlab {
 
 class EmbreeScene;
+
+// The EXR header attributes of a run's image: radlab.run_id, .scene, .solver, .step, .rows,
+// .git_sha and .version.
+ExrAttributes run_provenance(const std::string& run_id, const std::string& scene,
+                             const std::string& solver, long long step, unsigned long long rows);
 
 class ImageMaker {
  public:
@@ -23,8 +29,10 @@ class ImageMaker {
   ImageMaker(const ImageMaker&) = delete;
   ImageMaker& operator=(const ImageMaker&) = delete;
 
-  // Writes STEM_stepNNNNNN{.exr,.png,_cohen.exr,_cohen.png,_perror.exr,_perror.png}.
-  void save(const Solver& solver, long long step, const std::string& stem) const;
+  // Writes STEM_stepNNNNNN{.exr,.png,_cohen.exr,_cohen.png,_perror.exr,_perror.png}; the EXR
+  // files carry `provenance` as header attributes (run_provenance()).
+  void save(const Solver& solver, long long step, const std::string& stem,
+            const ExrAttributes& provenance) const;
 
   // The reference rendered once, with the exposure every other image of this problem uses (so
   // brightness compares across methods and steps).

@@ -10,7 +10,9 @@
 #include "core/limits.h"
 #include "core/log.h"
 #include "experiments/cli_common.h"
+#include "experiments/version_info.h"
 #include "scene/scene_loader.h"
+#include "solvers/plugin_loader.h"
 
 int main(int argc, char** argv) {
   CLI::App app{
@@ -27,6 +29,17 @@ int main(int argc, char** argv) {
   app.add_option("--mgf-include-root", include_root,
                  "let MGF scenes include files anywhere inside this folder (default: only inside "
                  "the scene file's own folder)");
+  std::vector<std::string> plugins;
+  app.add_option("--plugin", plugins,
+                 "load solvers from a plugin (a shared library, see docs/library.md); "
+                 "repeatable; RADLAB_PLUGIN_PATH lists more (files or folders, ':'-separated)");
+  app.add_flag_callback(
+      "--version",
+      [] {
+        std::printf("%sCLI11: %s\n", radlab::version_text().c_str(), CLI11_VERSION);
+        throw CLI::Success();
+      },
+      "print radlab's version, git revision and dependency versions, and exit");
   int threads = 0;
   radlab::cli::add_threads_option(app, threads);
   // These options may also follow the subcommand.
@@ -43,6 +56,9 @@ int main(int argc, char** argv) {
     radlab::log::set_quiet(quiet);
     if (!limits.empty()) radlab::set_limits(limits);
     radlab::set_mgf_include_root(include_root);
+    // Before any subcommand runs: its callback reads the solver table.
+    radlab::load_plugins_from_environment();
+    for (const std::string& plugin : plugins) radlab::load_plugin(plugin);
     radlab::cli::apply_threads(threads);
   });
   try {

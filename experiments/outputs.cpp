@@ -7,6 +7,8 @@
 
 #include "core/csv.h"
 #include "core/text.h"
+#include "core/version.h"
+#include "experiments/two_level_problem.h"
 #include "formfactor/matrix_cache.h"
 #include "solvers/registry.h"
 
@@ -27,7 +29,7 @@ void write_radiosity_csv(const std::string& path, const Mesh& mesh, const Radios
 
 void write_build_info(JsonWriter& json) {
   json.key("build").begin_object();
-  json.field("radlab_version", "0.1.0");
+  json.field("radlab_version", kVersion);
   json.field("git_sha", build_git_sha());
   json.field("source_hash", formfactor_code_version());
   json.field("compiler", std::string("g++ ") + __VERSION__);
@@ -60,6 +62,14 @@ void write_problem_info(JsonWriter& json, const Problem& p) {
   json.field("parameters", p.ff_parameters);
   json.field("precision", p.spec.precision == Precision::kFloat ? "float" : "double");
   json.field("rows", p.spec.row_mode == RowMode::kCached ? "cached" : "on-the-fly");
+  if (p.system && p.system->two_level()) {  // the patch rows' cost (solvers/patch_rows.h)
+    json.field("patch_rows", p.spec.patches.resolved_rows(p.spec.ff_method));
+    json.field("patch_rows_method_rows",
+               static_cast<unsigned long long>(p.patch_row_report.method_rows));
+    json.field("patch_rows_seconds", p.patch_row_report.seconds);
+    json.field("patch_row_sum_max", p.patch_row_report.max_row_sum);
+    json.field("element_to_patch_sum_max", p.patch_row_report.max_gather_sum);
+  }
   if (p.has_matrix()) {
     json.field("build_seconds", p.build.seconds);
     json.field("threads", p.build.threads);
@@ -85,7 +95,10 @@ void write_problem_info(JsonWriter& json, const Problem& p) {
 
   std::vector<std::string> left_out = p.method->left_out();
   if (p.scene().is_grey()) left_out.push_back("colour: one channel (every rho and E is grey)");
-  if (!p.has_matrix()) left_out.push_back("dense matrix: none (rows streamed, no reference)");
+  if (p.system && p.system->two_level())
+    left_out.push_back("dense matrix: none (two levels: P x n patch rows, K's rows from them)");
+  else if (!p.has_matrix())
+    left_out.push_back("dense matrix: none (rows streamed, no reference)");
   json.field("left_out", left_out);
 
   if (p.reference) {
@@ -149,8 +162,10 @@ void write_run_result(JsonWriter& json, const Budget& budget, const RunResult& r
   json.end_object();
 }
 
-void write_solver_statistics(JsonWriter& json, const Solver& solver) {
-  const auto statistics = solver.statistics();
+void write_solver_statistics(JsonWriter& json, const Solver& solver, const Problem* problem) {
+  auto statistics = solver.statistics();
+  if (problem)
+    for (auto& entry : final_system_statistics(*problem, solver)) statistics.push_back(entry);
   if (statistics.empty()) return;
   json.key("solver_statistics").begin_object();
   for (const auto& [key, value] : statistics) json.field(key, value);

@@ -5,6 +5,7 @@
 #include "core/log.h"
 #include "core/progress.h"
 #include "experiments/reference_cache.h"
+#include "experiments/two_level_problem.h"
 #include "formfactor/matrix_cache.h"
 #include "formfactor/raycast.h"
 
@@ -100,6 +101,14 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
   if (symmetrise_ff && spec.row_mode != RowMode::kCached)
     throw UsageError("form factors: symmetrise=true needs the dense matrix (--ff-mode cached)");
 
+  // Two levels: patch rows and the rank-P reference, no n x n matrix (two_level_problem.h).
+  spec.patches.validate();
+  if (spec.patches.two_level()) {
+    problem->ff_parameters = problem->method->parameters();
+    prepare_two_level(*problem, accept_unphysical);
+    return problem;
+  }
+
   const size_t n = problem->mesh.size();
   if (spec.row_mode == RowMode::kCached || spec.need_reference) {
     // Estimated before the n^2 allocation and the n^2 pair evaluations.
@@ -189,39 +198,7 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
     }
   }
 
-  // Two levels (solvers/patches.h): patch rows and K from the (symmetrised) element matrix; K
-  // then stands in for it everywhere (gathering rows, residuals, the reference and its key).
-  spec.patches.validate();
-  const bool two_level = spec.patches.two_level();
-  if (two_level) {
-    if (spec.row_mode != RowMode::kCached)
-      throw UsageError(
-          "patches: the two-level system is formed from the dense matrix; use "
-          "--ff-mode cached");
-    problem->patches = make_patches(problem->scene(), problem->mesh, spec.patches);
-    // From the certified (double) element matrix when the solvers read its float rounding: K in
-    // double is then the certified system and the solvers read its rounding, as on one level.
-    const bool rounded = problem->computed.size() > 0;
-    const FormFactorMatrix& element = rounded ? problem->computed : problem->matrix;
-    problem->patch_rows = patch_rows(element, problem->patches, problem->matrix.precision());
-    FormFactorMatrix K = two_level_matrix(element, problem->patches);
-    if (rounded) {
-      problem->matrix = round_to_float(K);
-      problem->computed = std::move(K);
-    } else {
-      problem->matrix = std::move(K);
-    }
-    key.text += ";patches=" + spec.patches.canonical();
-    log::info("two levels: " + std::to_string(problem->patches.size()) + " patches (" +
-              spec.patches.canonical() + ") shoot to " + std::to_string(n) +
-              " elements; largest patch " + std::to_string(problem->patches.largest()) +
-              " elements");
-  }
-
-  if (two_level)
-    problem->system = std::make_unique<System>(problem->scene(), problem->mesh, problem->matrix,
-                                               problem->patches, problem->patch_rows);
-  else if (spec.row_mode == RowMode::kCached)
+  if (spec.row_mode == RowMode::kCached)
     problem->system = std::make_unique<System>(problem->scene(), problem->mesh, problem->matrix);
   else
     problem->system = std::make_unique<System>(problem->scene(), problem->mesh, *problem->method);
@@ -258,8 +235,6 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
         (symmetrise_ff ? ", then symmetrised (symmetrise=true, the default with cached rows: a "
                          "chosen change of the system; symmetrise=false certifies the method's own)"
                        : "") +
-        (two_level ? "; two levels: K of " + spec.patches.canonical() + " (docs/solvers.md)"
-                   : std::string()) +
         (precision == Precision::kFloat ? "; solvers read it rounded to float" : "") +
         (accept_unphysical && !problem->row_sums.ok()
              ? "; UNPHYSICAL: rows of F above 1 + the method's stated error, accepted with "

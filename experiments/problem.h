@@ -14,6 +14,7 @@
 #include "formfactor/matrix.h"
 #include "scene/mesh.h"
 #include "scene/scene_loader.h"
+#include "solvers/patch_rows.h"
 #include "solvers/patches.h"
 #include "solvers/reference.h"
 #include "solvers/system.h"
@@ -50,8 +51,13 @@ struct Problem {
   // this system, the one the method computed, whatever the storage (docs/reference.md). With
   // patches, the two-level K formed from it.
   FormFactorMatrix computed;
-  Patches patches;  // two levels only: the patches and their rows
-  RowMatrix patch_rows;
+  // Two levels only (experiments/two_level_problem.h): the patches, their rows as the solvers
+  // read them and in double (what the reference certifies), K's rows served from them, and the
+  // cost of the patch rows. No n x n matrix then (has_matrix() is false).
+  Patches patches;
+  RowMatrix patch_rows, certified_patch_rows;
+  std::unique_ptr<FormFactorMethod> gather_rows;
+  PatchRowReport patch_row_report;
   BuildReport build;
   MatrixDiagnostics diagnostics;      // of the matrix the solvers use (symmetrised if asked)
   MatrixDiagnostics raw_diagnostics;  // of the matrix as the method computed it

@@ -9,8 +9,24 @@
 #include "core/log.h"
 #include "core/progress.h"
 #include "core/text.h"
+#include "experiments/two_level_problem.h"
 
 namespace radlab {
+
+void Budget::validate() const {
+  if ((steps && *steps < 1) || (rows && *rows < 1) ||
+      (seconds && !(*seconds > 0 && std::isfinite(*seconds))) || (tol && !(*tol > 0 && *tol < 1)))
+    throw UsageError(
+        "run budget: steps and rows must be >= 1, seconds finite and > 0, tol in (0,1)");
+}
+
+const char* Budget::exhausted(long long step, unsigned long long rows_used,
+                              double seconds_used) const {
+  if (steps && step >= *steps) return "step budget";
+  if (rows && static_cast<long long>(rows_used) >= *rows) return "row budget";
+  if (seconds && seconds_used >= *seconds) return "time budget";
+  return nullptr;
+}
 
 std::string Budget::describe() const {
   std::vector<std::string> parts;
@@ -73,6 +89,8 @@ class Evaluator {
     std::vector<double> residual;
     if (problem_.has_matrix())
       residual = residual_inf(*problem_.system, problem_.certified_matrix(), B);
+    else if (problem_.system->two_level() && problem_.reference)
+      residual = two_level_residual(problem_, B);  // from the patch rows (two_level_problem.h)
     const double inverse_norm =
         problem_.reference ? problem_.reference->inverse_norm_bound : std::nan("");
     const auto area = problem_.system->area();
@@ -204,7 +222,8 @@ void check_stagnation(const Problem& problem, const RunResult& result, double bo
       text::format_double(before) + "), over " + std::to_string(long(std::ceil(sweeps))) +
       "+ sweeps in which a solver converging at the spectral radius (<= " + text::format_double(r) +
       " per sweep) halves its error";
-  if (problem.computed.size() > 0)
+  if (problem.computed.size() > 0 ||
+      (problem.system->two_level() && problem.patch_rows.precision() == Precision::kFloat))
     why +=
         ". F is stored in float and the certificate is of the double-precision F: float "
         "rounding floors the bound (use --precision double to go lower)";
@@ -222,11 +241,7 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
   Budget budget = budget_in;
   // Callers validate with the user's words (file:line, option name); this is the last guard
   // against a budget that can never be reached, which would run forever.
-  if ((budget.steps && *budget.steps < 1) || (budget.rows && *budget.rows < 1) ||
-      (budget.seconds && !(*budget.seconds > 0 && std::isfinite(*budget.seconds))) ||
-      (budget.tol && !(*budget.tol > 0 && *budget.tol < 1)))
-    throw UsageError(
-        "run budget: steps and rows must be >= 1, seconds finite and > 0, tol in (0,1)");
+  budget.validate();
   if (budget.tol && !problem.reference)
     throw UsageError("--tol needs the reference (it bounds the error with its certificate)");
   // Never run unbounded: a tolerance alone is capped at 1000 sweeps' worth of rows, and
@@ -289,16 +304,8 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
       result.stop_reason = "tolerance reached";
       break;
     }
-    if (budget.steps && step >= *budget.steps) {
-      result.stop_reason = "step budget";
-      break;
-    }
-    if (budget.rows && static_cast<long long>(system.rows_used()) >= *budget.rows) {
-      result.stop_reason = "row budget";
-      break;
-    }
-    if (budget.seconds && seconds >= *budget.seconds) {
-      result.stop_reason = "time budget";
+    if (const char* reason = budget.exhausted(step, system.rows_used(), seconds)) {
+      result.stop_reason = reason;
       break;
     }
     auto start = Clock::now();
@@ -308,9 +315,7 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
     progress.update(budget.steps ? double(step) : double(system.rows_used()));
 
     const bool at_end =
-        info.finished || (budget.steps && step >= *budget.steps) ||
-        (budget.rows && static_cast<long long>(system.rows_used()) >= *budget.rows) ||
-        (budget.seconds && seconds >= *budget.seconds);
+        info.finished || budget.exhausted(step, system.rows_used(), seconds) != nullptr;
     if (step == next_checkpoint || at_end) {
       bound = checkpoint();
       next_checkpoint = schedule.next_after(step);

@@ -30,6 +30,13 @@ struct Budget {
 
   bool empty() const { return !steps && !rows && !seconds && !tol; }
   std::string describe() const;
+  // Throws a UsageError unless steps and rows are >= 1, seconds finite and > 0, tol in (0,1): a
+  // budget that can never be reached would run forever. The command line and experiment files
+  // check first, in the user's words (option name, file:line); this is the last guard.
+  void validate() const;
+  // The stop reason ("step budget", "row budget", "time budget") once the step, row or time
+  // budget is used up, else null. The tolerance is checked by the runner (it needs the bound).
+  const char* exhausted(long long step, unsigned long long rows, double seconds) const;
 };
 
 struct CheckpointSchedule {

@@ -45,8 +45,10 @@ std::string file_stem(const std::string& run_id) {
 
 namespace {
 
+// The solver's kind is in its SolverInfo: a new gathering solver gets per-sweep checkpoints, the
+// rate fit and the spectral-radius column without an edit here.
 bool is_gathering(const std::string& solver) {
-  return solver == "jacobi" || solver == "gauss-seidel";
+  return solver_info(solver).kind == SolverKind::kGathering;
 }
 
 // The experiment's schedule plus the image and coverage steps, evenly spaced checkpoints over the
@@ -431,7 +433,9 @@ SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
       };
       CheckpointHook hook = [&, stem](long long step, const Solver& s) {
         if (images && wanted(spec.images.steps, step))
-          images->save(s, step, (out / "images" / stem).string());
+          images->save(s, step, (out / "images" / stem).string(),
+                       run_provenance(run.run_id, problem->spec.scene, run.solver, step,
+                                      problem->system->rows_used()));
         if (wanted(spec.coverage_steps, step)) {
           char name[64];
           std::snprintf(name, sizeof name, "_step%06lld.csv", step);
@@ -446,7 +450,7 @@ SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
       JsonWriter json;
       begin_run_json(json, spec, run, problem.get(), &bag->values());
       write_run_result(json, spec.budget, result);
-      write_solver_statistics(json, *solver);
+      write_solver_statistics(json, *solver, problem.get());
       json.end_object();
       json.save((out / "runs" / (stem + ".run.json")).string());
     } catch (const Error& e) {

@@ -3,6 +3,7 @@
 #include <cstdio>
 
 #include "core/error.h"
+#include "core/text.h"
 #include "formfactor/occlusion.h"
 #include "formfactor/polygon_integral.h"
 #include "formfactor/raycast.h"
@@ -33,7 +34,8 @@ ExactOptions ExactOptions::from(ParamBag& bag) {
 
 void ExactOptions::validate() const {
   if (!(tolerance >= 1e-15 && tolerance < 1.0))
-    throw UsageError("exact: tolerance must lie in [1e-15,1), got " + std::to_string(tolerance));
+    throw UsageError("exact: tolerance must lie in [1e-15,1), got " +
+                     text::format_double(tolerance));
   if (max_depth < 1 || max_depth > 24)
     throw UsageError("exact: max_depth must lie in [1,24], got " + std::to_string(max_depth));
   if (visibility_rays && visibility_clip)

@@ -64,7 +64,7 @@ struct FormFactorMethodInfo {
   std::vector<std::pair<std::string, std::string>> parameters;  // key, "default: help"
 };
 
-// The explicit table of methods (for --help and `radlab formfactors --list`).
+// The explicit table of methods (for --help and `radlab solvers`, which lists them).
 const std::vector<FormFactorMethodInfo>& form_factor_methods();
 
 // Creates a method by name; unknown names or keys are UsageErrors listing the valid ones.

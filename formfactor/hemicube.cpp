@@ -287,12 +287,14 @@ std::vector<std::string> HemicubeFormFactors::left_out() const {
 }
 
 uint64_t HemicubeFormFactors::rasterise(size_t i, Buffers& buf, RowCost& cost) const {
+  return rasterise_at(mesh_.centroid[i], mesh_.normal[i], frame_u_[i], int64_t(i), buf, cost);
+}
+
+uint64_t HemicubeFormFactors::rasterise_at(const Vec3& c, const Vec3& n, const Vec3& u,
+                                           int64_t skip, Buffers& buf, RowCost& cost) const {
   const int R = options_.resolution;
   const HemicubeLayout layout{R};
   buf.prepare(layout, mesh_.vertices.size());
-  const Vec3 c = mesh_.centroid[i];
-  const Vec3 n = mesh_.normal[i];
-  const Vec3 u = frame_u_[i];
   const Vec3 v = glm::cross(n, u);
   const double eps = epsilon_;
   const double near = near_;
@@ -338,7 +340,7 @@ uint64_t HemicubeFormFactors::rasterise(size_t i, Buffers& buf, RowCost& cost) c
   double X[kMaxClip], Y[kMaxClip];
   Vec3 poly[kMaxClip], clipped[kMaxClip];
   for (size_t j = 0; j < mesh_.size(); ++j) {
-    if (j == i) continue;
+    if (int64_t(j) == skip) continue;
     const auto corners = mesh_.element_vertices(j);
     const int m = int(corners.size());
     bool above = false;
@@ -474,6 +476,17 @@ uint64_t HemicubeFormFactors::rasterise(size_t i, Buffers& buf, RowCost& cost) c
 void HemicubeFormFactors::row(size_t i, std::span<double> out, RowCost& cost) const {
   thread_local Buffers buffers;
   cost.kernel_evaluations += rasterise(i, buffers, cost);
+  accumulate(buffers, out);
+}
+
+void HemicubeFormFactors::row_at(const Vec3& eye, const Vec3& normal, const Vec3& u,
+                                 std::span<double> out, RowCost& cost) const {
+  thread_local Buffers buffers;
+  cost.kernel_evaluations += rasterise_at(eye, normal, u, -1, buffers, cost);
+  accumulate(buffers, out);
+}
+
+void HemicubeFormFactors::accumulate(const Buffers& buffers, std::span<double> out) const {
   std::fill(out.begin(), out.end(), 0.0);
   const size_t pixels = weights_.size();
   const int32_t* item = buffers.item.data();

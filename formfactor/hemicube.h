@@ -86,6 +86,16 @@ class HemicubeFormFactors final : public FormFactorMethod {
   std::vector<std::string> left_out() const override;
   void row(size_t i, std::span<double> out, RowCost& cost) const override;
 
+  // One hemicube at an arbitrary eye point on a surface (unit `normal`, unit tangent `u` in its
+  // plane as the first frame axis): out[j] = the form factor from that point to element j. The
+  // same rasterisation as row(); elements in the eye's plane are culled, so a patch's own
+  // elements add nothing when the eye lies on the patch (solvers/patch_rows.h). row(i) is
+  // row_at(centroid, normal and frame_u of i) with i itself skipped. Thread-safe.
+  void row_at(const Vec3& eye, const Vec3& normal, const Vec3& u, std::span<double> out,
+              RowCost& cost) const;
+  // The first frame axis of element i's hemicube (its first edge, in its plane).
+  const Vec3& frame_u(size_t i) const { return frame_u_[i]; }
+
   // The item buffer of element i's hemicube (HemicubeLayout order): the element seen through
   // each pixel, or kNothing. For tests and pictures.
   void item_buffer(size_t i, std::vector<int32_t>& items) const;
@@ -96,6 +106,11 @@ class HemicubeFormFactors final : public FormFactorMethod {
   struct Buffers;
   // Fills the item buffer of element i; returns the number of depth tests.
   uint64_t rasterise(size_t i, Buffers& buffers, RowCost& cost) const;
+  // The same at eye c, frame (u, n x u, n), element `skip` (or -1: none) left out.
+  uint64_t rasterise_at(const Vec3& c, const Vec3& n, const Vec3& u, int64_t skip, Buffers& buffers,
+                        RowCost& cost) const;
+  // out[j] = sum of the weights of the pixels holding j.
+  void accumulate(const Buffers& buffers, std::span<double> out) const;
 
   const Mesh& mesh_;
   HemicubeOptions options_;

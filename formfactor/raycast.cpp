@@ -8,6 +8,7 @@
 #include <limits>
 
 #include "core/error.h"
+#include "core/text.h"
 #include "formfactor/polygon_integral.h"
 #include "scene/geometry.h"
 
@@ -27,7 +28,7 @@ RaycastOptions RaycastOptions::from(ParamBag& bag) {
 
 void RaycastOptions::validate() const {
   if (!(tolerance > 0.0 && tolerance < 1.0))
-    throw UsageError("raycast: tolerance must lie in (0,1), got " + std::to_string(tolerance));
+    throw UsageError("raycast: tolerance must lie in (0,1), got " + text::format_double(tolerance));
   if (rays < 1 || rays > 4096)
     throw UsageError("raycast: rays must lie in [1,4096], got " + std::to_string(rays));
   if (max_rays < rays || max_rays > 4096)

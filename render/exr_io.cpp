@@ -8,6 +8,7 @@
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
 #include <ImfOutputFile.h>
+#include <ImfStringAttribute.h>
 
 #include <exception>
 #include <stdexcept>
@@ -33,7 +34,7 @@ Imf::FrameBuffer interleaved_frame(const float* pixels, const Imath::Box2i& wind
 
 }  // namespace
 
-void write_exr(const std::string& path, const Image& image) {
+void write_exr(const std::string& path, const Image& image, const ExrAttributes& attributes) {
   if (!image.well_formed())
     throw std::invalid_argument(path + ": write_exr got an image whose pixel data (" +
                                 std::to_string(image.rgb.size()) + " floats) does not match " +
@@ -45,6 +46,7 @@ void write_exr(const std::string& path, const Image& image) {
     Imf::Header header(image.width, image.height);
     header.compression() = Imf::ZIP_COMPRESSION;
     for (const char* c : kChannels) header.channels().insert(c, Imf::Channel(Imf::FLOAT));
+    for (const auto& [name, value] : attributes) header.insert(name, Imf::StringAttribute(value));
     Imf::OutputFile file(path.c_str(), header);
     file.setFrameBuffer(interleaved_frame(image.rgb.data(), header.dataWindow()));
     file.writePixels(image.height);
@@ -66,6 +68,19 @@ Image read_exr(const std::string& path) {
     return image;
   } catch (const InputError&) {
     throw;
+  } catch (const std::exception& e) {
+    throw InputError(path + ": cannot read EXR (" + e.what() + ")");
+  }
+}
+
+ExrAttributes read_exr_attributes(const std::string& path) {
+  try {
+    Imf::InputFile file(path.c_str());
+    ExrAttributes out;
+    for (auto it = file.header().begin(); it != file.header().end(); ++it)
+      if (const auto* text = dynamic_cast<const Imf::StringAttribute*>(&it.attribute()))
+        out.emplace_back(it.name(), text->value());
+    return out;
   } catch (const std::exception& e) {
     throw InputError(path + ": cannot read EXR (" + e.what() + ")");
   }

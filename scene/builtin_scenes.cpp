@@ -221,14 +221,14 @@ const std::vector<BuiltinScene>& builtin_scenes() {
        make_office_scene},
       {"room",
        "a simple room, Wu & Wang 2002 example B (reconstruction; closed; RGB); --subdiv 2: "
-       "~1,336 elements",
+       "1,360 elements (the paper's: 1,336)",
        {{"light_scale", "1", "multiplies the luminaire's emission (15, 14, 12)"},
         {"rho_scale", "1", "multiplies every reflectance (must stay <= 1)"},
         {"patch", "0.55", "target patch edge (m); the element target assumes the default"}},
        make_room_scene},
       {"computer-room",
        "a computer room, Wu & Wang 2002 example A (reconstruction; closed; RGB); --subdiv 3: "
-       "~4,953 elements",
+       "4,860 elements (the paper's: 4,953)",
        {{"light_scale", "1", "multiplies the luminaires' emission (14, 14, 13)"},
         {"rho_scale", "1", "multiplies every reflectance (must stay <= 1)"},
         {"patch", "0.9", "target patch edge (m); the element target assumes the default"}},

@@ -5,9 +5,10 @@
 //
 // - builtin:office         Cohen, Chen, Wallace & Greenberg 1988: two office cubicles, ~500
 //                          patches; `--subdiv 4` gives ~7,000 elements.
-// - builtin:room           Wu & Wang 2002, example B: a simple room; `--subdiv 2` gives ~1,336.
+// - builtin:room           Wu & Wang 2002, example B: a simple room; `--subdiv 2` gives 1,360
+//                          (the paper's: 1,336).
 // - builtin:computer-room  Wu & Wang 2002, example A: a closed computer room; `--subdiv 3`
-//                          gives ~4,953.
+//                          gives 4,860 (the paper's: 4,953).
 //
 // All three are closed (every ray leaving a front side hits a polygon), y is up, units are metres,
 // every polygon is a planar convex quadrilateral ("patch") facing into the free space, materials

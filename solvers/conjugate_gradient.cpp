@@ -36,6 +36,7 @@
 #include <string>
 
 #include "core/error.h"
+#include "core/text.h"
 #include "solvers/kernels.h"
 #include "solvers/solver_factories.h"
 
@@ -61,7 +62,7 @@ struct ConjugateGradientOptions {
   void validate() const {
     if (!(reciprocity_tolerance >= 0.0 && reciprocity_tolerance < 1.0))
       throw UsageError("conjugate-gradient: reciprocity_tolerance must lie in [0,1), got " +
-                       std::to_string(reciprocity_tolerance));
+                       text::format_double(reciprocity_tolerance));
   }
 };
 
@@ -81,6 +82,13 @@ class ConjugateGradientSolver final : public Solver {
       for (int c = 0; c < channels; ++c) reflects |= rho.at(c, i) > 0.0;
       if (reflects) active_.push_back(i);
     }
+    // The two-level system is not reciprocal (A_e K_ej != A_j K_je), and symmetrising it would
+    // solve another system than the one its reference certifies.
+    if (system_->two_level())
+      throw UsageError(
+          "conjugate-gradient needs a reciprocal system (A_i F_ij = A_j F_ji); the two-level "
+          "system is not (A_e K_ej != A_j K_je) and symmetrise=true would solve another one; use "
+          "gathering or shooting");
     if (!options_.symmetrise) check_reciprocity();
 
     B_ = system.emission();
@@ -281,7 +289,8 @@ class ConjugateGradientSolver final : public Solver {
           "conjugate-gradient needs reciprocal form factors (A_i F_ij = A_j F_ji): relative "
           "defect " +
           std::to_string(worst) + " at elements " + std::to_string(wi) + ", " + std::to_string(wj) +
-          " exceeds reciprocity_tolerance = " + std::to_string(options_.reciprocity_tolerance) +
+          " exceeds reciprocity_tolerance = " +
+          text::format_double(options_.reciprocity_tolerance) +
           ". Symmetrise the cached matrix (--ff-set symmetrise=true, the default with "
           "--ff-mode cached), or set the solver's symmetrise=true to solve the symmetrised "
           "system");
@@ -303,9 +312,9 @@ SolverInfo conjugate_gradient_solver_info() {
           "preconditioned conjugate gradients on diag(A/rho)(I - diag(rho) F) B = A E / rho",
           "Hestenes & Stiefel 1952 (beyond the papers); needs reciprocal form factors",
           "one matrix-vector product: a row per reflecting element",
-          {{"preconditioner", "jacobi", "jacobi (diagonal of M) or none"},
-           {"symmetrise", "false", "solve the symmetrised system instead of requiring reciprocity"},
-           {"reciprocity_tolerance", "1e-6", "largest relative reciprocity defect accepted"}},
+          {{"preconditioner", "", "jacobi (diagonal of M) or none"},
+           {"symmetrise", "", "solve the symmetrised system instead of requiring reciprocity"},
+           {"reciprocity_tolerance", "", "largest relative reciprocity defect accepted"}},
           [](ParamBag& bag) -> std::unique_ptr<Solver> {
             return std::make_unique<ConjugateGradientSolver>(ConjugateGradientOptions::from(bag));
           }};

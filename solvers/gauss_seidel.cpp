@@ -12,6 +12,7 @@
 #include <cstdio>
 
 #include "core/error.h"
+#include "core/text.h"
 #include "solvers/gathering.h"
 #include "solvers/kernels.h"
 
@@ -30,7 +31,7 @@ struct GaussSeidelOptions {
   void validate() const {
     if (!(omega > 0.0 && omega < 2.0))
       throw UsageError("gauss-seidel: omega must lie in (0,2) for convergence, got " +
-                       std::to_string(omega));
+                       text::format_double(omega));
   }
 };
 
@@ -82,10 +83,11 @@ SolverInfo gauss_seidel_solver_info() {
           "gathering, one element per step, newest values (SOR with omega)",
           "Cohen & Greenberg 1985; Cohen et al. 1988 'Gathering Only'",
           "one form-factor row",
-          {{"omega", "1", "relaxation factor in (0,2); 1 is Gauss-Seidel"}},
+          {{"omega", "", "relaxation factor in (0,2); 1 is Gauss-Seidel"}},
           [](ParamBag& bag) -> std::unique_ptr<Solver> {
             return std::make_unique<GaussSeidelSolver>(GaussSeidelOptions::from(bag));
-          }};
+          },
+          SolverKind::kGathering};
 }
 
 }  // namespace radlab

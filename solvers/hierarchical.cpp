@@ -12,6 +12,9 @@
 //   refinement (the oracle weighs F by rho_p B_q / mean B, the scene's area-weighted mean
 //   radiosity, so refinement waits for light to arrive; needs levels >= 2, since the first pass
 //   sees only E).
+// Row normalisation (rows=leaf, the default; hierarchical_rows.h): every leaf scales what it
+//   gathers to its own 2 x 2 rule's row sum over the links on its path, clamped at 1, so no
+//   leaf's row sums above 1 (the paper's link sums reach 1.5 and diverge at rho near 1).
 // Measured on the run's mesh: the solution is the area average of the hierarchy's leaves over
 //   each mesh element (exact clipping in parameter space), so rms and p-error compare with the
 //   certified reference of the uniform system. The hierarchy is a different discretisation with
@@ -19,7 +22,8 @@
 //   with feps and aeps, never to zero.
 // Parameters: feps (link threshold on the estimated form factor), aeps (smallest splittable
 //   node, as a fraction of the scene's total area: scale-free, so one default serves the built-in
-//   rooms and the RenderPark scenes), refine (f or bf), levels, gathers, order, seed (jitter).
+//   rooms and the RenderPark scenes), refine (f or bf), levels, gathers, order, rows (leaf or
+//   links), seed (jitter).
 // Cost per step: one refinement pass (the first step, and the first of each multigrid level) or
 //   one gather + push/pull pass over all links and nodes. Work charged: 2 element-pair form
 //   factors per refinement test and per link made, 2 per link per gather pass (a link's two
@@ -31,10 +35,13 @@
 
 #include <chrono>
 #include <cmath>
+#include <fstream>
 #include <memory>
+#include <string>
 
 #include "core/error.h"
 #include "solvers/hierarchical_hierarchy.h"
+#include "solvers/hierarchical_rows.h"
 #include "solvers/solver_factories.h"
 
 namespace radlab {
@@ -49,6 +56,7 @@ struct HierarchicalOptions {
   long long levels = 1;
   long long gathers = 4;
   std::string order = "jacobi";
+  std::string rows = "leaf";
   long long seed = 1;
 
   static HierarchicalOptions from(ParamBag& bag) {
@@ -59,6 +67,7 @@ struct HierarchicalOptions {
     o.levels = bag.get_int("levels", o.levels);
     o.gathers = bag.get_int("gathers", o.gathers);
     o.order = bag.get_choice("order", o.order, {"jacobi", "gauss-seidel"});
+    o.rows = bag.get_choice("rows", o.rows, {"leaf", "links"});
     o.seed = bag.get_int("seed", o.seed);
     o.validate();
     return o;
@@ -82,10 +91,21 @@ struct HierarchicalOptions {
   }
 };
 
+// The process's peak resident set so far (Linux VmHWM), in bytes; 0 where /proc is absent. The
+// whole process's, not the solver's alone: the run's mesh and any matrix count too.
+double peak_rss_bytes() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line))
+    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) * 1024.0;
+  return 0.0;
+}
+
 struct PassRecord {
-  double feps = 0.0, seconds = 0.0;
+  double feps = 0.0, seconds = 0.0, peak_rss = 0.0;
   size_t nodes = 0, leaves = 0, links = 0, memory = 0;
   RefineStats stats;
+  RowStats rows;
 };
 
 class HierarchicalSolver final : public Solver {
@@ -187,10 +207,15 @@ class HierarchicalSolver final : public Solver {
     add("refinement_tests", double(total.refinement_tests));
     add("pairs_facing_away", double(total.facing_away));
     add("pairs_occluded", double(total.occluded));
+    add("pairs_degenerate", double(total.degenerate));
     add("visibility_tests", double(total.visibility_tests));
     add("pairs_inherited_visible", double(total.inherited_visible));
     add("rays", double(total.rays));
     add("memory_bytes", double(tree_.memory_bytes() + links_.capacity() * sizeof(LinkRecord)));
+    size_t nonfinite_factors = 0;
+    for (const LinkRecord& l : links_)
+      nonfinite_factors += (std::isfinite(l.fpq) ? 0 : 1) + (std::isfinite(l.fqp) ? 0 : 1);
+    add("nonfinite_link_factors", double(nonfinite_factors));
     add("refinement_passes", double(passes_.size()));
     add("refinement_seconds", refine_seconds);
     add("gather_passes", double(gather_passes_));
@@ -207,6 +232,16 @@ class HierarchicalSolver final : public Solver {
       add(pre + "visibility_tests", double(p.stats.visibility_tests));
       add(pre + "rays", double(p.stats.rays));
       add(pre + "memory_bytes", double(p.memory));
+      add(pre + "peak_rss_bytes", p.peak_rss);
+      if (o_.rows == "leaf") {
+        add(pre + "row_link_sum_max", p.rows.max_link_sum);
+        add(pre + "row_link_sum_min", p.rows.min_link_sum);
+        add(pre + "row_leaves_above_one", double(p.rows.leaves_above_one));
+        add(pre + "row_scale_change_max", p.rows.max_change);
+        add(pre + "row_sum_max", p.rows.max_row);
+        add(pre + "row_evaluations", double(p.rows.evaluations));
+        add(pre + "row_nonfinite_values", double(p.rows.nonfinite));
+      }
     }
     return s;
   }
@@ -214,6 +249,20 @@ class HierarchicalSolver final : public Solver {
  private:
   static double seconds_since(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+
+  // Concatenates the per-task link lists into `out` (reserved to the exact total, so no
+  // reallocation and no shrink copy), freeing each list once copied: the pass's peak holds the
+  // links about once, not twice (hosp.mgf: 8.3 M links of 64 bytes).
+  static void append_in_order(std::vector<std::vector<LinkRecord>>& parts,
+                              std::vector<LinkRecord>& out) {
+    size_t total = 0;
+    for (const auto& p : parts) total += p.size();
+    out.reserve(total);
+    for (auto& p : parts) {
+      out.insert(out.end(), p.begin(), p.end());
+      std::vector<LinkRecord>().swap(p);
+    }
   }
 
   void refinement_pass() {
@@ -251,10 +300,8 @@ class HierarchicalSolver final : public Solver {
               for (size_t b = a + 1; b < n; ++b)
                 refiner.refine_roots(uint32_t(a), uint32_t(b), parts[a], part_stats[a]);
           });
-      for (size_t a = 0; a < n; ++a) {
-        next.insert(next.end(), parts[a].begin(), parts[a].end());
-        stats.add(part_stats[a]);
-      }
+      append_in_order(parts, next);
+      for (const RefineStats& p : part_stats) stats.add(p);
     } else {
       constexpr size_t kBlock = 1024;
       const size_t blocks = (links_.size() + kBlock - 1) / kBlock;
@@ -266,26 +313,27 @@ class HierarchicalSolver final : public Solver {
               for (size_t l = k * kBlock; l < std::min(links_.size(), (k + 1) * kBlock); ++l)
                 refiner.rerefine(links_[l], parts[k], part_stats[k]);
           });
-      for (size_t k = 0; k < blocks; ++k) {
-        next.insert(next.end(), parts[k].begin(), parts[k].end());
-        stats.add(part_stats[k]);
-      }
+      append_in_order(parts, next);
+      for (const RefineStats& p : part_stats) stats.add(p);
     }
     links_ = std::move(next);
-    links_.shrink_to_fit();
     Hierarchy tree =
         build_hierarchy(charts_, links_, &tree_, chart_emission_, chart_reflectance_, channels_);
     tree_ = std::move(tree);
-    system_->charge_pair_evaluations(stats.pair_evaluations);
+    RowStats rows;
+    if (o_.rows == "leaf") rows = normalise_rows(tree_, charts_);
+    system_->charge_pair_evaluations(stats.pair_evaluations + rows.evaluations);
     system_->charge_rays(stats.rays);
     PassRecord record;
     record.feps = criterion.feps;
     record.stats = stats;
+    record.rows = rows;
     record.nodes = tree_.size();
     record.leaves = tree_.leaves;
     record.links = links_.size();
     record.memory = tree_.memory_bytes() + links_.capacity() * sizeof(LinkRecord);
     record.seconds = seconds_since(t0);
+    record.peak_rss = peak_rss_bytes();
     passes_.push_back(record);
   }
 
@@ -322,6 +370,9 @@ SolverInfo hierarchical_solver_info() {
            {"levels", "1", "multigrid levels: feps*4^(levels-1) ... feps (bf needs >= 2)"},
            {"gathers", "4", "gather passes at each multigrid level but the last"},
            {"order", "jacobi", "gather order: jacobi or gauss-seidel"},
+           {"rows", "leaf",
+            "leaf: each leaf's gathered light scaled to its own 2x2-rule row sum (<= 1); links: "
+            "the paper's unnormalised sum (diverges at rho near 1)"},
            {"seed", "1", "seed of the visibility rays' jitter"}},
           [](ParamBag& bag) -> std::unique_ptr<Solver> {
             return std::make_unique<HierarchicalSolver>(HierarchicalOptions::from(bag));

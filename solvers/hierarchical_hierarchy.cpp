@@ -30,7 +30,8 @@ size_t Hierarchy::memory_bytes() const {
                           sizeof(uint64_t) +
                           // the key index: a node, its key and a bucket pointer
                           sizeof(NodeKey) + sizeof(uint32_t) + 2 * sizeof(void*);
-  return size() * per_node + source.size() * (sizeof(uint32_t) + sizeof(double));
+  return size() * (per_node + sizeof(double)) +
+         source.size() * (sizeof(uint32_t) + sizeof(double) + sizeof(uint8_t));
 }
 
 Hierarchy build_hierarchy(const std::vector<Chart>& charts, const std::vector<LinkRecord>& links,
@@ -107,12 +108,16 @@ Hierarchy build_hierarchy(const std::vector<Chart>& charts, const std::vector<Li
   for (size_t i = 0; i < n; ++i) h.first[i + 1] += h.first[i];
   h.source.resize(2 * links.size());
   h.factor.resize(2 * links.size());
+  h.free_rays.resize(2 * links.size());
+  h.row_scale.assign(n, 1.0);
   std::vector<uint64_t> fill(h.first.begin(), h.first.end() - 1);
   for (size_t l = 0; l < links.size(); ++l) {
     const auto [p, q] = ends[l];
     h.source[fill[p]] = q;
+    h.free_rays[fill[p]] = links[l].free_rays;
     h.factor[fill[p]++] = links[l].fpq;
     h.source[fill[q]] = p;
+    h.free_rays[fill[q]] = links[l].free_rays;
     h.factor[fill[q]++] = links[l].fqp;
   }
   return h;
@@ -145,7 +150,7 @@ double push_pull(const Hierarchy& h, size_t i, const double* down, std::vector<d
   if (h.is_leaf(i)) {
     for (int c = 0; c < h.channels; ++c) {
       const size_t at = size_t(c) * n + i;
-      out[at] = h.emission[at] + h.reflectance[at] * total[c];
+      out[at] = h.emission[at] + h.reflectance[at] * h.row_scale[i] * total[c];
       change = std::max(change, std::abs(out[at] - h.B[at]));
     }
     return change;

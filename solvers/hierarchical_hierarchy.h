@@ -35,6 +35,10 @@ struct Hierarchy {
   std::vector<uint64_t> first;
   std::vector<uint32_t> source;
   std::vector<double> factor;
+  std::vector<uint8_t> free_rays;  // per CSR entry: the link's unblocked rays (V = free / 16)
+  // Per node: the factor every leaf applies to what it and its ancestors gathered (1 until
+  // normalise_rows sets it; hierarchical_rows.h).
+  std::vector<double> row_scale;
   size_t leaves = 0;
 
   size_t size() const { return key.size(); }

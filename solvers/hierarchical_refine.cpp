@@ -15,6 +15,7 @@ void RefineStats::add(const RefineStats& o) {
   visibility_tests += o.visibility_tests;
   inherited_visible += o.inherited_visible;
   occluded += o.occluded;
+  degenerate += o.degenerate;
   rays += o.rays;
   pair_evaluations += o.pair_evaluations;
   links_created += o.links_created;
@@ -30,6 +31,11 @@ double lambert(const Vec3& x, const Vec3& n, const NodeGeometry& target, const V
 
 int child_count(const NodeGeometry&) {
   return 4;
+}
+
+bool usable(const NodeGeometry& g) {
+  return g.area > 0.0 && std::isfinite(g.area) && std::isfinite(g.centre.x) &&
+         std::isfinite(g.centre.y) && std::isfinite(g.centre.z);
 }
 
 }  // namespace
@@ -83,6 +89,12 @@ void Refiner::split(const Node& p, const Node& q, bool split_q, Known known,
 void Refiner::refine(const Node& p, const Node& q, Known known, std::vector<LinkRecord>& out,
                      RefineStats& stats) const {
   ++stats.refinement_tests;
+  if (!usable(p.g) || !usable(q.g)) {
+    // A node of no area (a fan triangle of collinear corners) exchanges no light; its centroid
+    // and normal are undefined, so no estimate is made.
+    ++stats.degenerate;
+    return;
+  }
   const Chart& cp = charts_[p.key.chart];
   const Chart& cq = charts_[q.key.chart];
   const PlaneRelation relation = plane_test(p.g, cp.normal, q.g, cq.normal);
@@ -134,6 +146,7 @@ void Refiner::refine(const Node& p, const Node& q, Known known, std::vector<Link
   link.estimate_qp = float(est_qp);
   link.cls = cut ? LinkClass::kCut : partial ? LinkClass::kPartial : LinkClass::kVisible;
   link.partial = partial;
+  link.free_rays = uint8_t(free);
   stats.pair_evaluations += 2;
   ++stats.links_created;
   out.push_back(link);

@@ -44,7 +44,8 @@ struct LinkRecord {
   double fpq = 0.0, fqp = 0.0;             // transfer factors, visibility included
   float estimate_pq = 0, estimate_qp = 0;  // unoccluded estimates (the refinement oracle)
   LinkClass cls = LinkClass::kVisible;
-  bool partial = false;  // some rays blocked (a cut pair can be partial too)
+  bool partial = false;    // some rays blocked (a cut pair can be partial too)
+  uint8_t free_rays = 16;  // unblocked rays of kVisibilityRays: V = free_rays / 16
 };
 
 // Counters of the paper's Table 1.
@@ -54,6 +55,7 @@ struct RefineStats {
   uint64_t visibility_tests = 0;   // pairs that cast rays
   uint64_t inherited_visible = 0;  // pairs that took V = 1 from a fully visible ancestor pair
   uint64_t occluded = 0;           // pairs found totally occluded (neither linked nor refined)
+  uint64_t degenerate = 0;         // pairs with a node of zero area (neither linked nor refined)
   uint64_t rays = 0;
   uint64_t pair_evaluations = 0;
   uint64_t links_created = 0;

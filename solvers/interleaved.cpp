@@ -285,12 +285,13 @@ SolverInfo interleaved_solver_info() {
           "least-covered elements; exact bookkeeping",
           "Wu & Wang 2002 'Interleaving Radiosity'",
           "one form-factor row (a shot or a gather)",
-          {{"shots", "400", "shots per shooting session"},
-           {"gathers", "400", "gathers per gathering session (0: shooting only)"},
-           {"max_sessions", "32", "gathering sessions tracked source by source (memory)"}},
+          {{"shots", "", "shots per shooting session"},
+           {"gathers", "", "gathers per gathering session (0: shooting only)"},
+           {"max_sessions", "", "gathering sessions tracked source by source (memory)"}},
           [](ParamBag& bag) -> std::unique_ptr<Solver> {
             return std::make_unique<InterleavedSolver>(InterleavedOptions::from(bag));
-          }};
+          },
+          SolverKind::kShooting};
 }
 
 }  // namespace radlab

@@ -10,6 +10,7 @@
 // Cost per step: one form-factor row.
 // Left out: nothing; it is the slowest gathering method by design, kept as the baseline.
 #include "core/error.h"
+#include "core/text.h"
 #include "solvers/gathering.h"
 #include "solvers/kernels.h"
 
@@ -27,7 +28,7 @@ struct JacobiOptions {
   }
   void validate() const {
     if (!(omega > 0.0 && omega <= 1.0))
-      throw UsageError("jacobi: omega must lie in (0,1], got " + std::to_string(omega));
+      throw UsageError("jacobi: omega must lie in (0,1], got " + text::format_double(omega));
   }
 };
 
@@ -74,10 +75,11 @@ SolverInfo jacobi_solver_info() {
           "gathering, one element per step, previous sweep's values",
           "textbook baseline (Cohen & Wallace 1993, ch. 5)",
           "one form-factor row",
-          {{"omega", "1", "damping in (0,1]"}},
+          {{"omega", "", "damping in (0,1]"}},
           [](ParamBag& bag) -> std::unique_ptr<Solver> {
             return std::make_unique<JacobiSolver>(JacobiOptions::from(bag));
-          }};
+          },
+          SolverKind::kGathering};
 }
 
 }  // namespace radlab

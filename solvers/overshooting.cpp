@@ -166,13 +166,14 @@ SolverInfo overshooting_solver_info() {
           "progressive shooting of dB_i + o_i, leaving dB_i = -o_i (unshot may go negative)",
           "Feda & Purgathofer 1992; Gortler et al. 1994 (as in Wu & Wang 2002 §2)",
           "one form-factor row",
-          {{"variant", "regather",
+          {{"variant", "",
             "overshoot estimate: ambient (rho_i R avg unshot) or regather (rho_i sum F_ij dB_j)"},
-           {"clamp", "false", "count only positive unshot radiosity in the estimate"},
-           {"storage", "double", "double or float: keep x and dB in float (Wu & Wang's baseline)"}},
+           {"clamp", "", "count only positive unshot radiosity in the estimate"},
+           {"storage", "", "double or float: keep x and dB in float (Wu & Wang's baseline)"}},
           [](ParamBag& bag) -> std::unique_ptr<Solver> {
             return std::make_unique<OvershootingSolver>(OvershootingOptions::from(bag));
-          }};
+          },
+          SolverKind::kShooting};
 }
 
 }  // namespace radlab

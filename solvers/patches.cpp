@@ -133,11 +133,22 @@ void PatchOptions::validate() const {
                      text::format_double(size));
   if (from != "size" && size != 0.0)
     throw UsageError("patches: size is used only with from = \"size\"");
+  if (rows != "auto" && rows != "centre" && rows != "mean")
+    throw UsageError("patches: rows must be auto, centre or mean, got '" + rows + "'");
+  if (from == "elements" && rows != "auto")
+    throw UsageError("patches: rows is used only with two levels (from = polygons or size)");
+}
+
+std::string PatchOptions::resolved_rows(const std::string& method) const {
+  if (rows != "auto") return rows;
+  return method == "hemicube" ? "centre" : "mean";
 }
 
 std::string PatchOptions::canonical() const {
-  if (from == "size") return "from=size,size=" + text::format_double(size);
-  return "from=" + from;
+  std::string text = "from=" + from;
+  if (from == "size") text += ",size=" + text::format_double(size);
+  if (rows != "auto") text += ",rows=" + rows;
+  return text;
 }
 
 Patches make_patches(const Scene& scene, const Mesh& mesh, const PatchOptions& options) {
@@ -173,27 +184,6 @@ RowMatrix patch_rows(const FormFactorMatrix& F, const Patches& patches, Precisio
                       }
                     });
   return P;
-}
-
-FormFactorMatrix two_level_matrix(const FormFactorMatrix& F, const Patches& patches) {
-  const size_t n = F.size();
-  FormFactorMatrix K(n, F.precision());
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, n), [&](const tbb::blocked_range<size_t>& range) {
-    std::vector<double> to_patch(patches.size());
-    for (size_t e = range.begin(); e != range.end(); ++e) {
-      std::fill(to_patch.begin(), to_patch.end(), 0.0);
-      F.visit_row(e, [&](const auto* Fe) {
-        for (size_t p = 0; p < patches.size(); ++p)
-          for (uint32_t k : patches.members(p)) to_patch[p] += double(Fe[k]);
-      });
-      for (size_t p = 0; p < patches.size(); ++p) {
-        const auto members = patches.members(p);
-        const auto weights = patches.weights(p);
-        for (size_t k = 0; k < members.size(); ++k) K.set(e, members[k], to_patch[p] * weights[k]);
-      }
-    }
-  });
-  return K;
 }
 
 }  // namespace radlab

@@ -3,27 +3,20 @@
 // split into receive it. A patch is a set of elements; its radiosity is the area-weighted mean of
 // theirs.
 //
-// The two-level system in the element unknowns (docs/solvers.md, "Two levels"):
+// The two-level system in the element unknowns (docs/solvers.md, "Two levels") is defined by the
+// patches' P x n patch-to-element rows P_pe (solvers/patch_rows.h: one hemicube at each patch's
+// centre as the paper, or the mean of its elements' rows):
 //
-//   B_e = E_e + rho_e sum_j K_ej B_j,    K_ej = F_{e,p(j)} A_j / A_p(j),
+//   B_e = E_e + rho_e sum_j K_ej B_j,    K_ej = F_{e,p(j)} A_j / A_p(j),   F_{e,p} = P_pe A_p /
+//   A_e,
 //
-// where p(j) is the patch holding element j, A_p = sum of its elements' areas and
-// F_{e,p} = sum_{k in p} F_ek is the form factor from element e to patch p: element e gathers from
-// each patch the patch's mean radiosity. A patch p shoots with its patch-to-element row
-//
-//   P_pe = sum_{i in p} (A_i / A_p) F_ie,
-//
-// the area-weighted mean of its elements' rows (the patch-to-element form factor of those element
-// rows), delivering rho_e P_pe (A_p / A_e) dB_p to every element e. By reciprocity
-// (A_i F_ie = A_e F_ei) the shot is the transpose of the gather, so patch shooting and element
-// gathering solve the same system, to the same float rounding as the one-level system's shooting
-// and gathering (solvers/shooting_core.h). With one element per patch, P = F and K = F bit for bit
-// (every weight A_j / A_p is exactly 1), i.e. the one-level system.
-//
-// Both matrices are formed from the dense (symmetrised) element matrix, so the certified reference
-// (solvers/reference.h) solves K unchanged. Left out: Cohen's single hemicube at the patch's
-// centre (radlab's patch row is the mean of its elements' rows, which the symmetrised matrix
-// already holds; it costs no extra hemicube and agrees with gathering).
+// where p(j) is the patch holding element j and A_p = sum of its elements' areas: element e
+// gathers from each patch the patch's mean radiosity, with the element-to-patch factor that
+// reciprocity gives from the patch's row. A patch p shooting delivers rho_e P_pe (A_p / A_e) dB_p
+// to every element e: the exact transpose of the gather, so patch shooting and element gathering
+// solve one system, and the certified reference (solvers/two_level_reference.h) solves it from P
+// with no n x n matrix. With one element per patch and centre rows, P is the one-level hemicube
+// matrix row for row and the system is the one one-level shooting solves (docs).
 #pragma once
 
 #include <cstdint>
@@ -79,10 +72,16 @@ Patches coarse_mesh_patches(const Scene& scene, const Mesh& mesh, double patch_s
 struct PatchOptions {
   std::string from = "elements";  // elements (one-level) | polygons | size
   double size = 0.0;              // patch edge length for from = "size" (m)
+  // Patch rows (solvers/patch_rows.h): centre (one hemicube at the patch's centre, the paper) |
+  // mean (area-weighted mean of the element rows) | auto (centre with hemicubes, else mean).
+  std::string rows = "auto";
 
   bool two_level() const { return from != "elements"; }
-  void validate() const;          // UsageError naming the bad value
-  std::string canonical() const;  // "from=polygons" / "from=size,size=0.5" (run ids, cache keys)
+  void validate() const;  // UsageError naming the bad value
+  // "from=polygons" / "from=size,size=0.5" [",rows=mean"] (run ids, cache keys)
+  std::string canonical() const;
+  // The rule `rows` names for form-factor method `method` (auto resolved).
+  std::string resolved_rows(const std::string& method) const;
 };
 Patches make_patches(const Scene& scene, const Mesh& mesh, const PatchOptions& options);
 
@@ -116,10 +115,8 @@ class RowMatrix {
   std::vector<double> f64_;
 };
 
-// P_pe = sum_{i in p} (A_i / A_p) F_ie, stored in `precision` (sums in double).
+// P_pe = sum_{i in p} (A_i / A_p) F_ie from a dense element matrix, stored in `precision` (sums in
+// double): the `mean` rule's rows when F is at hand (tests).
 RowMatrix patch_rows(const FormFactorMatrix& F, const Patches& patches, Precision precision);
-// K_ej = F_{e,p(j)} (A_j / A_p(j)), F_{e,p} = sum_{k in p} F_ek, in F's precision (sums in
-// double). The matrix the gathering solvers read and the reference solves.
-FormFactorMatrix two_level_matrix(const FormFactorMatrix& F, const Patches& patches);
 
 }  // namespace radlab

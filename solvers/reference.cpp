@@ -14,6 +14,7 @@
 
 #include "core/error.h"
 #include "core/log.h"
+#include "core/text.h"
 #include "solvers/dense_lu.h"
 
 namespace radlab {
@@ -388,7 +389,7 @@ Reference compute_reference(const System& system, const FormFactorMatrix& F,
     if (!(bound <= options.acceptable * std::max(max_B, 1e-300)))
       throw NumericalError("reference: could not certify channel " + channel + ": bound " +
                            std::to_string(bound) + " exceeds " +
-                           std::to_string(options.acceptable) +
+                           text::format_double(options.acceptable) +
                            " of max B = " + std::to_string(max_B));
     ref.bound_inf = std::max(ref.bound_inf, bound);
     ref.residual_inf = std::max(ref.residual_inf, r_norm);
@@ -417,7 +418,7 @@ void recertify_reference(const System& system, const FormFactorMatrix& matrix, R
     const double bound = residuals[size_t(c)] * ref.channel_inverse_norm[size_t(c)];
     if (!(bound <= options.acceptable * std::max(max_B, 1e-300)))
       throw NumericalError("reference: the stored solution's bound " + std::to_string(bound) +
-                           " exceeds " + std::to_string(options.acceptable) + " of max B");
+                           " exceeds " + text::format_double(options.acceptable) + " of max B");
     ref.bound_inf = std::max(ref.bound_inf, bound);
     ref.residual_inf = std::max(ref.residual_inf, residuals[size_t(c)]);
     max_B_all = std::max(max_B_all, max_B);

@@ -59,7 +59,8 @@ SolverInfo shooting_solver_info() {
           "Cohen et al. 1988 'Shooting Only'",
           "one form-factor row",
           {},
-          [](ParamBag&) -> std::unique_ptr<Solver> { return std::make_unique<ShootingSolver>(); }};
+          [](ParamBag&) -> std::unique_ptr<Solver> { return std::make_unique<ShootingSolver>(); },
+          SolverKind::kShooting};
 }
 
 }  // namespace radlab

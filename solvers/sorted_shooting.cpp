@@ -26,6 +26,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "core/text.h"
 #include "solvers/shooting_core.h"
 #include "solvers/solver_factories.h"
 
@@ -50,7 +51,7 @@ struct SortedShootingOptions {
   void validate() const {
     if (!(omega > 0.0 && omega < 2.0))
       throw UsageError("sorted-shooting: omega must lie in (0,2) for convergence, got " +
-                       std::to_string(omega));
+                       text::format_double(omega));
   }
 };
 
@@ -118,12 +119,13 @@ SolverInfo sorted_shooting_solver_info() {
           "progressive shooting of the largest unshot power (Southwell); optional display ambient",
           "Cohen et al. 1988 'Shooting and Sorting' (+ 'Ambient', eqs 9-13)",
           "one form-factor row (selection fused into the shot)",
-          {{"ambient", "false", "add Cohen's display-only ambient term to display()"},
-           {"omega", "1", "shoot omega*dB_i; in (0,2), > 1 over-relaxes"},
-           {"storage", "double", "double or float: keep x and dB in float (Wu & Wang's baseline)"}},
+          {{"ambient", "", "add Cohen's display-only ambient term to display()"},
+           {"omega", "", "shoot omega*dB_i; in (0,2), > 1 over-relaxes"},
+           {"storage", "", "double or float: keep x and dB in float (Wu & Wang's baseline)"}},
           [](ParamBag& bag) -> std::unique_ptr<Solver> {
             return std::make_unique<SortedShootingSolver>(SortedShootingOptions::from(bag));
-          }};
+          },
+          SolverKind::kShooting};
 }
 
 }  // namespace radlab

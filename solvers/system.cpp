@@ -15,11 +15,11 @@ System::System(const Scene& scene, const Mesh& mesh, const FormFactorMethod& met
   init(scene);
 }
 
-System::System(const Scene& scene, const Mesh& mesh, const FormFactorMatrix& matrix,
+System::System(const Scene& scene, const Mesh& mesh, const FormFactorMethod& gather,
                const Patches& patches, const RowMatrix& rows)
-    : scene_(scene), mesh_(mesh), matrix_(&matrix), patch_rows_(&rows), shooters_(&patches) {
-  if (patches.elements() != mesh.size() || matrix.size() != mesh.size() ||
-      rows.rows() != patches.size() || rows.columns() != mesh.size())
+    : scene_(scene), mesh_(mesh), method_(&gather), patch_rows_(&rows), shooters_(&patches) {
+  if (patches.elements() != mesh.size() || rows.rows() != patches.size() ||
+      rows.columns() != mesh.size())
     throw std::invalid_argument("System: two-level parts of different sizes");
   init(scene);
 }

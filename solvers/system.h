@@ -43,9 +43,10 @@ class System {
   System(const Scene& scene, const Mesh& mesh, const FormFactorMatrix& matrix);
   // Rows computed on demand by `method` (not owned).
   System(const Scene& scene, const Mesh& mesh, const FormFactorMethod& method);
-  // Two levels: `matrix` is K (two_level_matrix) and `rows` the patch rows of `patches`
-  // (patch_rows); none is owned, all must outlive the System.
-  System(const Scene& scene, const Mesh& mesh, const FormFactorMatrix& matrix,
+  // Two levels: `rows` the patch rows of `patches` and `gather` K's rows from them (TwoLevelRows,
+  // solvers/patch_rows.h), served like rows computed on the fly; none is owned, all must outlive
+  // the System.
+  System(const Scene& scene, const Mesh& mesh, const FormFactorMethod& gather,
          const Patches& patches, const RowMatrix& rows);
 
   size_t size() const { return area_.size(); }

@@ -162,7 +162,9 @@ TEST(RaycastNearPairs, ParallelSquaresAMillimetreApartMeetTheTolerance) {
 void expect_renderpark_rows_within_stated_error(const std::string& name) {
   const char* shared = std::getenv("RADLAB_SHARED_SCENES");
   const std::string path = std::string(shared ? shared : "") + "/renderpark/" + name;
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " not found";
+  if (!std::filesystem::exists(path)) {
+    RADLAB_SHARED_MISSING(path << " not found");
+  }
   const LoadedScene loaded = load_scene(path, false);
   const Mesh mesh = build_mesh(loaded.scene, {});
   RaycastFormFactors ff(loaded.scene, mesh, {});

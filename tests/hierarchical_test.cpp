@@ -220,12 +220,11 @@ void run_to_end(Solver& solver, int max_steps = 400) {
 }
 
 TEST(Hierarchical, FurnaceGivesEOverOneMinusRho) {
-  // Closed box, E = 1, rho = 0.7: B = 1/0.3 everywhere. The link factors are estimates, so the
-  // gathered fraction per leaf is 1 up to the refinement error; B's relative error is that
-  // error amplified by rho/(1-rho) = 2.3. Asserted: within 3% at feps = 0.01 and closer at
-  // 0.0025 (the error must fall with feps).
+  // Closed box, E = 1, rho = 0.7: B = 1/0.3 everywhere. Each leaf's gather is normalised to its
+  // own 2 x 2 rule's row sum (hierarchical_rows.h), which is 1 to rounding in an unoccluded
+  // closed box, so B is exact up to the stopping rule (changes below 1e-14 of max B per pass,
+  // times rho/(1-rho) = 2.3) at every feps: asserted to 1e-12 relative at two feps.
   auto s = setup("furnace:rho=0.7", 4);
-  double previous = 1.0;
   for (const char* feps : {"feps=0.01", "feps=0.0025"}) {
     auto solver = make({feps});
     solver->init(*s->system);
@@ -233,18 +232,19 @@ TEST(Hierarchical, FurnaceGivesEOverOneMinusRho) {
     double worst = 0.0;
     for (size_t i = 0; i < s->mesh.size(); ++i)
       worst = std::max(worst, std::abs(solver->solution().at(0, i) * 0.3 - 1.0));
-    EXPECT_LT(worst, 0.03) << feps;
-    EXPECT_LT(worst, previous) << feps;
-    previous = worst;
+    EXPECT_LT(worst, 1e-12) << feps;
   }
 }
 
 TEST(Hierarchical, ConvergesToTheUniformMeshReferenceAsFepsFalls) {
   // The hierarchy is a different discretisation with estimated form factors, so it cannot
   // reach the flat reference exactly; its rms error must fall as feps and aeps fall. The bound
-  // at the finest setting (rms_rel <= 1%) is about 3x what these settings give here.
-  for (const char* spec : {"cube", "cornell"}) {
-    auto s = setup(spec, 4);
+  // at the finest setting (rms_rel <= 1%) is about 3x what these settings give here. The cube is
+  // measured at --subdiv 8: at --subdiv 4 (96 elements) the flat system's own discretisation
+  // error (~0.2%) is what the normalised hierarchy meets from feps 0.01 on (rms_rel 0.0022 at
+  // both 0.01 and 0.0025), so the order of the last two would be noise.
+  for (const auto& [spec, subdiv] : {std::pair{"cube", 8}, std::pair{"cornell", 4}}) {
+    auto s = setup(spec, subdiv);
     double previous = 1.0;
     for (const auto& params : std::vector<std::vector<std::string>>{{"feps=0.04", "aeps=1e-3"},
                                                                     {"feps=0.01", "aeps=1e-4"},
@@ -273,9 +273,9 @@ double rms_against_reference(const Setup& s, const Solver& solver) {
 
 TEST(Hierarchical, GaussSeidelReachesJacobisFixedPointInFewerPasses) {
   // Same links (same feps, aeps, seed), so the same linear system: both orders must stop at the
-  // same solution (to 1e-12 relative: the stopping rule leaves changes below 1e-14 of max B per
-  // pass, times 1/(1-rho) ~ 4), Gauss–Seidel in fewer passes (Stein–Rosenberg: the block
-  // system is non-negative).
+  // same solution (to 1e-12 of max B: the stopping rule leaves changes below 1e-14 of max B per
+  // pass, times rho/(1-rho) <= 4 for the box's rho <= 0.8, so 25x margin), Gauss–Seidel in fewer
+  // passes (Stein–Rosenberg: the block system is non-negative).
   auto s = setup("cornell", 2);
   auto jacobi = make({"feps=0.01"});
   auto gs = make({"feps=0.01", "order=gauss-seidel"});
@@ -283,9 +283,10 @@ TEST(Hierarchical, GaussSeidelReachesJacobisFixedPointInFewerPasses) {
     solver->init(*s->system);
     run_to_end(*solver);
   }
+  double top = 0.0;
+  for (double b : jacobi->solution().raw()) top = std::max(top, std::abs(b));
   for (size_t k = 0; k < jacobi->solution().raw().size(); ++k)
-    EXPECT_NEAR(gs->solution().raw()[k], jacobi->solution().raw()[k],
-                1e-12 * std::abs(jacobi->solution().raw()[k]) + 1e-14);
+    EXPECT_NEAR(gs->solution().raw()[k], jacobi->solution().raw()[k], 1e-12 * top);
   EXPECT_LT(statistics_of(*gs)["gather_passes"], statistics_of(*jacobi)["gather_passes"]);
 }
 

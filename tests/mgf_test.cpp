@@ -547,9 +547,13 @@ class SharedMgfScene : public ::testing::TestWithParam<SharedScene> {};
 
 TEST_P(SharedMgfScene, LoadsWithTheDocumentedCounts) {
   const char* root = std::getenv("RADLAB_SHARED_SCENES");
-  if (!root || !*root) GTEST_SKIP() << "RADLAB_SHARED_SCENES is not set";
+  if (!root || !*root) {
+    RADLAB_SHARED_MISSING("RADLAB_SHARED_SCENES is not set");
+  }
   const std::filesystem::path path = std::filesystem::path(root) / "renderpark" / GetParam().file;
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " is missing";
+  if (!std::filesystem::exists(path)) {
+    RADLAB_SHARED_MISSING(path << " is missing");
+  }
   MgfStats stats;
   // The hospital includes ../Materials: includes outside the scene's folder need the opt-in.
   const std::string include_root = (std::filesystem::path(root) / "renderpark").string();

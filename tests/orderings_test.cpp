@@ -31,21 +31,12 @@
 #include "solvers/interleaved.h"
 #include "solvers/reference.h"
 #include "solvers/registry.h"
+#include "tests/solver_support.h"
 
 namespace radlab {
 namespace {
 
-struct Setup {
-  Scene scene;
-  Mesh mesh;
-  FormFactorMatrix matrix;
-  std::unique_ptr<System> system;
-  Reference reference;
-
-  size_t n() const { return mesh.size(); }
-  int channels() const { return system->channels(); }
-  std::span<const double> area() const { return system->area(); }
-};
+using radlab::testing::Setup;  // tests/solver_support.h
 
 enum class Ff { kRaycast, kHemicube };
 

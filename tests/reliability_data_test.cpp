@@ -28,6 +28,7 @@
 #include "experiments/summary.h"
 #include "experiments/sweep.h"
 #include "formfactor/matrix_cache.h"
+#include "tests/experiment_fixtures.h"
 #include "tests/test_support.h"
 
 namespace radlab {
@@ -38,17 +39,7 @@ using testing::expect_error;
 using testing::TempDir;
 
 // Two gauss-seidel runs on a 24-element cube; a few milliseconds each.
-const char* kTwoRuns = R"(name = "tiny"
-scenes = ["builtin:cube:rho=0.8"]
-subdiv = 2
-solvers = ["gauss-seidel"]
-[form_factors]
-rays = 4
-[budget]
-rows = 200
-[parameters.gauss-seidel]
-omega = [1.0, 1.3]
-)";
+using radlab::testing::kTwoRuns;  // tests/experiment_fixtures.h
 
 // The same with a third run, so a 3-way split is possible; and with images.
 const char* kThreeRunsWithImages = R"(name = "tiny"
@@ -441,7 +432,7 @@ TEST(ReliabilitySweep, AKilledSweepIsMarkedRunningAndResumes) {
   EXPECT_FALSE(fs::exists(out + "/.radlab-partial"));
   // sweep.json too: the same runs, failures and problems (the first problem's entry is rebuilt
   // from its runs' run.json).
-  EXPECT_NE(resumed.output.find("omega:0.80000000000000004: already complete"), std::string::npos)
+  EXPECT_NE(resumed.output.find("omega:0.8: already complete"), std::string::npos)
       << resumed.output;
   const Json resumed_sweep = read_json_file(out + "/sweep.json");
   const Json whole_sweep = read_json_file(dir.file("whole/sweep.json"));

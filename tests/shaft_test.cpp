@@ -157,9 +157,13 @@ TEST(ShaftPolygonPairs, NeverLessThanTheElementLevelTestAndSound) {
 // tier proves clear: they must be clear for traced rays.
 TEST(ShaftPolygonPairs, PairsClearedByThePolygonTierAreClearInOffice2) {
   const char* root = std::getenv("RADLAB_SHARED_SCENES");
-  if (!root || !*root) GTEST_SKIP() << "RADLAB_SHARED_SCENES is not set";
+  if (!root || !*root) {
+    RADLAB_SHARED_MISSING("RADLAB_SHARED_SCENES is not set");
+  }
   const std::string path = std::string(root) + "/renderpark/office2/office2.mgf";
-  if (!std::ifstream(path)) GTEST_SKIP() << path << " is missing";
+  if (!std::ifstream(path)) {
+    RADLAB_SHARED_MISSING(path << " is missing");
+  }
   Scene scene = load_scene(path, false).scene;
   Mesh mesh = build_mesh(scene, {4, 0.0});
   const double eps = plane_epsilon(mesh);

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <random>
 
@@ -52,6 +53,11 @@ CommandResult run_command(const std::string& shell_command) {
   const int status = pclose(pipe);
   r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
+}
+
+bool ci() {
+  const char* value = std::getenv("CI");
+  return value && std::string(value) == "true";
 }
 
 }  // namespace radlab::testing

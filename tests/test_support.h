@@ -56,4 +56,18 @@ struct CommandResult {
 // Runs `shell_command` through sh, stderr into stdout.
 CommandResult run_command(const std::string& shell_command);
 
+// True when the environment says CI=true (as GitHub Actions, GitLab CI and others set it).
+bool ci();
+
 }  // namespace radlab::testing
+
+// For a test that needs the shared scenes (../shared, RADLAB_SHARED_SCENES) when they are
+// missing: skips on a developer's clone without them, but fails under CI=true, where a green run
+// must not come from skipped tests. `what` may stream: RADLAB_SHARED_MISSING(path << " missing").
+#define RADLAB_SHARED_MISSING(what)                                                    \
+  if (::radlab::testing::ci())                                                         \
+    GTEST_FAIL() << what << " (CI=true: the shared scenes are required, not skipped)"; \
+  else                                                                                 \
+    GTEST_SKIP() << what
+
+namespace radlab::testing {}  // namespace radlab::testing

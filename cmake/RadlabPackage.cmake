@@ -1,0 +1,55 @@
+# Installing radlab as a CMake package (docs/library.md): `cmake --install build --prefix P`
+# puts the headers under P/include/radlab/, the static libraries under P/lib, `radlab` under
+# P/bin and radlabConfig.cmake under P/lib/cmake/radlab, so that a project outside the tree does
+#   find_package(radlab REQUIRED)
+#   add_library(my_solver MODULE my_solver.cpp)
+#   target_link_libraries(my_solver PRIVATE radlab::plugin)
+include(GNUInstallDirs)
+include(CMakePackageConfigHelpers)
+
+set(radlab_public_folders core scene formfactor solvers metrics render experiments)
+# The command line's own header is not part of the library.
+set(radlab_private_headers experiments/cli_common.h)
+set(radlab_staged_include ${PROJECT_BINARY_DIR}/include)
+
+string(REPLACE ";" "|" folder_list "${radlab_public_folders}")
+string(REPLACE ";" "|" exclude_list "${radlab_private_headers}")
+add_custom_target(radlab_headers ALL
+                  COMMAND ${CMAKE_COMMAND} -DSOURCE_DIR=${PROJECT_SOURCE_DIR}
+                          -DOUTPUT_DIR=${radlab_staged_include} "-DFOLDERS=${folder_list}"
+                          "-DEXCLUDE=${exclude_list}"
+                          "-DEXTRA=core/version.h=${PROJECT_BINARY_DIR}/generated/core/version.h"
+                          -P ${PROJECT_SOURCE_DIR}/cmake/StageHeaders.cmake
+                  COMMENT "Staging the public headers under include/radlab/" VERBATIM)
+
+# radlab::plugin: the headers and their header-only dependencies, no library. A plugin resolves
+# radlab's symbols against the executable that loads it (ENABLE_EXPORTS on radlab).
+add_library(radlab_plugin INTERFACE)
+add_dependencies(radlab_plugin radlab_headers)
+target_include_directories(radlab_plugin INTERFACE $<BUILD_INTERFACE:${radlab_staged_include}>
+                                                   $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
+target_link_libraries(radlab_plugin INTERFACE glm::glm nlohmann_json::nlohmann_json)
+target_compile_features(radlab_plugin INTERFACE cxx_std_20)
+
+set(radlab_exported radlab_core radlab_scene radlab_formfactor radlab_solvers radlab_metrics
+                    radlab_render radlab_experiments radlab_plugin)
+foreach(target IN LISTS radlab_exported)
+  string(REPLACE "radlab_" "" short ${target})
+  set_target_properties(${target} PROPERTIES EXPORT_NAME ${short})
+endforeach()
+install(TARGETS ${radlab_exported} radlab EXPORT radlabTargets
+        ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
+        LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
+        RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR}
+        INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+install(DIRECTORY ${radlab_staged_include}/radlab DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+install(EXPORT radlabTargets NAMESPACE radlab:: FILE radlabTargets.cmake
+        DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/radlab)
+configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/radlabConfig.cmake.in
+                              ${PROJECT_BINARY_DIR}/radlabConfig.cmake
+                              INSTALL_DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/radlab)
+# C++ has no stable ABI: a plugin needs the exact version (the loader checks it too).
+write_basic_package_version_file(${PROJECT_BINARY_DIR}/radlabConfigVersion.cmake
+                                 COMPATIBILITY ExactVersion)
+install(FILES ${PROJECT_BINARY_DIR}/radlabConfig.cmake ${PROJECT_BINARY_DIR}/radlabConfigVersion.cmake
+        DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/radlab)

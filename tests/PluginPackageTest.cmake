@@ -1,0 +1,53 @@
+# The out-of-tree path end to end (ctest plugin.installed_package): install radlab into a
+# temporary prefix inside the build folder, build examples/southwell_plugin against the installed
+# package with its own CMakeLists.txt, and run the plugin's solver through the installed radlab
+# (`solvers`, `solve`) and through the solver conformance tests.
+#   -DBUILD_DIR -DSOURCE_DIR -DCXX_COMPILER -DCONFORMANCE_TEST=<solver_conformance_test binary>
+set(work ${BUILD_DIR}/plugin_package_test)
+set(prefix ${work}/prefix)
+file(REMOVE_RECURSE ${work})
+
+function(run)
+  execute_process(COMMAND ${ARGN} RESULT_VARIABLE code OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT code EQUAL 0)
+    message(FATAL_ERROR "failed (${code}): ${ARGN}\n${out}\n${err}")
+  endif()
+  set(output "${out}${err}" PARENT_SCOPE)
+endfunction()
+
+run(${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${prefix})
+foreach(file include/radlab/solvers/plugin.h include/radlab/solvers/solver.h
+             include/radlab/core/version.h lib/cmake/radlab/radlabConfig.cmake bin/radlab)
+  if(NOT EXISTS ${prefix}/${file})
+    message(FATAL_ERROR "the install has no ${file}")
+  endif()
+endforeach()
+# Installed headers include each other under the radlab/ prefix only.
+file(READ ${prefix}/include/radlab/solvers/solver.h text)
+if(NOT text MATCHES "#include \"radlab/core/radiosity.h\"")
+  message(FATAL_ERROR "installed solver.h does not include radlab/core/radiosity.h")
+endif()
+
+run(${CMAKE_COMMAND} -S ${SOURCE_DIR}/examples/southwell_plugin -B ${work}/build
+    -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_CXX_COMPILER=${CXX_COMPILER} -DCMAKE_BUILD_TYPE=Release)
+run(${CMAKE_COMMAND} --build ${work}/build)
+set(plugin ${work}/build/libsouthwell_plugin.so)
+
+# Named twice (--plugin and RADLAB_PLUGIN_PATH): loaded once, or its name would be a duplicate.
+run(${CMAKE_COMMAND} -E env RADLAB_PLUGIN_PATH=${plugin} ${prefix}/bin/radlab --plugin ${plugin} solvers)
+if(NOT output MATCHES "southwell +plugin example" OR NOT output MATCHES "omega +default 1 ")
+  message(FATAL_ERROR "radlab solvers does not list the plugin's solver:\n${output}")
+endif()
+run(${CMAKE_COMMAND} -E env RADLAB_CACHE_DIR=${work}/cache
+    ${prefix}/bin/radlab -q --plugin ${plugin} solve builtin:cube:rho=0.5 --subdiv 2
+    --solver southwell --tol 1e-6)
+if(NOT output MATCHES "run +southwell/")
+  message(FATAL_ERROR "radlab solve with the plugin's solver:\n${output}")
+endif()
+# The conformance tests, with the plugin's solver among the registered ones.
+run(${CMAKE_COMMAND} -E env RADLAB_PLUGIN_PATH=${plugin} RADLAB_CACHE_DIR=${work}/cache
+    ${CONFORMANCE_TEST} --gtest_filter=*southwell*)
+if(NOT output MATCHES "EverySolver.ReachesTheReference/southwell" OR NOT output MATCHES "PASSED")
+  message(FATAL_ERROR "the conformance tests did not run the plugin's solver:\n${output}")
+endif()
+message(STATUS "${output}")

@@ -1,0 +1,272 @@
+// The point-to-polygon kernel: the batched Lambert evaluator and its inline atan2
+// (formfactor/point_polygon.h, fast_atan.h), the per-node quadrature and the logarithm-free
+// order rule.
+//
+// Tolerances are derived in the comments next to them, never tuned to the measured error.
+#include "formfactor/point_polygon.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <glm/gtc/matrix_transform.hpp>
+#include <numbers>
+#include <numeric>
+
+#include "core/error.h"
+#include "core/random.h"
+#include "experiments/problem.h"
+#include "formfactor/diagnostics.h"
+#include "formfactor/exact.h"
+#include "formfactor/fast_atan.h"
+#include "formfactor/hemicube.h"
+#include "formfactor/matrix.h"
+#include "formfactor/matrix_cache.h"
+#include "formfactor/polygon_integral.h"
+#include "formfactor/quadrature.h"
+#include "formfactor/raycast.h"
+#include "formfactor/shaft.h"
+#include "formfactor/visibility.h"
+#include "scene/builtin_scenes.h"
+#include "scene/geometry.h"
+#include "scene/validate.h"
+#include "tests/formfactor_support.h"
+#include "tests/test_support.h"
+
+namespace radlab {
+namespace {
+
+using testing::scene_of;
+using testing::square_z;
+using namespace radlab::testing;
+
+double relative_error(double value, double reference) {
+  return reference == 0.0 ? std::abs(value) : std::abs(value - reference) / std::abs(reference);
+}
+
+// Both builds of atan2_upper's polynomial (fma through libm here where the CPU has none: the
+// same roundings as the hardware instruction) against std::atan2 on 3.7 million points: angles
+// uniform over [0, pi] at radii from 1e-20 to 1e20; tiny angles (down to 1e-300) next to 0 and
+// next to pi; angles next to pi/2; and angles within 1% of the region boundaries k pi/8, where
+// the reduction changes formula. The bound: a correctly rounded result is within 2^-53
+// relative (1.1e-16); the reduced argument carries up to three roundings and the result one,
+// against std::atan2's own (< 1 ulp), so a few ulp: 4e-16 (measured: 2.8e-16, at pi/8).
+TEST(FastAtan, MatchesStdAtan2OverTheUpperHalfPlane) {
+  Pcg32 rng(2024);
+  const double pi = std::numbers::pi;
+  double worst[2] = {0.0, 0.0};
+  auto check = [&](double y, double x) {
+    const double reference = std::atan2(y, x);
+    worst[0] = std::max(worst[0], relative_error(atan2_upper<false>(y, x), reference));
+    worst[1] = std::max(worst[1], relative_error(atan2_upper<true>(y, x), reference));
+  };
+  for (int k = 0; k < 1000000; ++k) {
+    const double angle = pi * rng.next_double(),
+                 radius = std::pow(10.0, 40.0 * rng.next_double() - 20.0);
+    check(radius * std::sin(angle), radius * std::cos(angle));
+  }
+  for (int k = 0; k < 500000; ++k) {
+    const double tiny = std::pow(10.0, -300.0 * rng.next_double()), x = 0.5 + rng.next_double();
+    check(tiny * x, x);   // next to 0
+    check(tiny * x, -x);  // next to pi
+    const double small = std::pow(10.0, -16.0 * rng.next_double());
+    check(x, small * x);  // next to pi/2, either side
+    check(x, -small * x);
+  }
+  for (int boundary = 1; boundary <= 7; ++boundary)
+    for (int k = 0; k < 100000; ++k) {
+      const double angle = boundary * pi / 8.0 * (1.0 + 0.02 * (rng.next_double() - 0.5));
+      check(std::sin(angle), std::cos(angle));
+    }
+  EXPECT_LE(worst[0], 4e-16);
+  EXPECT_LE(worst[1], 4e-16);
+  // The axes exactly.
+  EXPECT_EQ(atan2_upper(0.0, 1.0), 0.0);
+  EXPECT_EQ(atan2_upper(0.0, -1.0), pi);
+  EXPECT_EQ(atan2_upper(1.0, 0.0), pi / 2);
+  EXPECT_EQ(atan2_upper(1.0, -0.0), pi / 2);
+  EXPECT_EQ(atan2_upper(1e-300, 1.0), 1e-300);
+}
+
+// A random convex polygon: corners on an ellipse in a random plane, counter-clockwise about the
+// returned front normal.
+std::vector<Vec3> random_polygon(Pcg32& rng, size_t corners, Vec3& normal) {
+  const Vec3 centre(rng.next_double() - 0.5, rng.next_double() - 0.5, rng.next_double() - 0.5);
+  Vec3 u = glm::normalize(
+      Vec3(rng.next_double() - 0.5, rng.next_double() - 0.5, rng.next_double() - 0.5));
+  Vec3 v = glm::normalize(glm::cross(u, Vec3(0.3, 0.5, 0.8)));
+  normal = glm::cross(u, v);
+  const double a = 0.05 + rng.next_double(), b = 0.05 + rng.next_double();
+  std::vector<double> angles(corners);
+  for (double& angle : angles) angle = 2.0 * std::numbers::pi * rng.next_double();
+  std::sort(angles.begin(), angles.end());
+  std::vector<Vec3> polygon;
+  for (double angle : angles)
+    polygon.push_back(centre + a * std::cos(angle) * u + b * std::sin(angle) * v);
+  return polygon;
+}
+
+// The batched evaluator against the scalar formula, both builds, on random polygons of 3 to 9
+// corners (9: beyond the batched kernels, all scalar) and batches of 1 to 150 points (partial
+// lanes, several blocks): points in front and above the tangent plane (the batched path), points
+// whose tangent plane cuts the polygon (clipped, on the scalar path), points behind the polygon
+// (0), points a hair in front of its plane (edge terms ~0.1 cancelling to ~1e-9: recomputed with
+// libm's atan2, so exactly the scalar result on x86-64) and far points (moderate cancellation, the
+// batched path). Same formula and geometry, another atan2: within 1e-13 relative (the batched
+// path recomputes a point whose terms cancel by more than 300x, where the difference could
+// exceed that), and exactly 0 where the scalar result is 0.
+TEST(PointToPolygonBatch, MatchesTheScalarFormula) {
+  Pcg32 rng(7);
+  std::vector<Vec3> scratch;
+  double worst = 0.0;
+  size_t total = 0, behind = 0, clipped = 0, grazing = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    Vec3 normal;
+    const size_t corners = 3 + size_t(trial) % 7;
+    const std::vector<Vec3> polygon = random_polygon(rng, corners, normal);
+    const Vec3 centre =
+        std::accumulate(polygon.begin(), polygon.end(), Vec3(0.0)) / double(corners);
+    const size_t count = 1 + rng.next_below(150);
+    std::vector<double> x(count), y(count), z(count);
+    const Vec3 n = glm::normalize(
+        Vec3(rng.next_double() - 0.5, rng.next_double() - 0.5, rng.next_double() - 0.5) -
+        0.8 * normal);
+    for (size_t k = 0; k < count; ++k) {
+      const Vec3 offset(rng.next_double() - 0.5, rng.next_double() - 0.5, rng.next_double() - 0.5);
+      Vec3 p;
+      switch (k % 4) {
+        case 0:
+          p = centre + 3.0 * offset;
+          break;  // anywhere
+        case 1:
+          p = centre + 8.0 * offset + 6.0 * normal;
+          break;  // far
+        case 2:
+          p = centre + 2.0 * offset + (1e-9 - glm::dot(2.0 * offset, normal)) * normal;
+          break;  // grazing
+        default:
+          p = centre + offset + 0.5 * normal;
+          break;  // near, in front
+      }
+      x[k] = p.x;
+      y[k] = p.y;
+      z[k] = p.z;
+    }
+    for (BatchKernel kernel : {BatchKernel::kBest, BatchKernel::kBaseline}) {
+      std::vector<double> out(count, -1.0);
+      point_to_polygon_form_factors({x.data(), y.data(), z.data(), count}, n, polygon, normal,
+                                    out.data(), scratch, kernel);
+      for (size_t k = 0; k < count; ++k) {
+        const Vec3 p(x[k], y[k], z[k]);
+        const double scalar = point_to_polygon_form_factor(p, n, polygon, normal, scratch);
+        const bool in_front = glm::dot(p - polygon[0], normal) > 0.0;
+        if (scalar == 0.0) {
+          EXPECT_EQ(out[k], 0.0) << "trial " << trial << " point " << k;
+#if defined(__x86_64__)
+        } else if (k % 4 == 2 && in_front) {
+          EXPECT_EQ(out[k], scalar) << "grazing: trial " << trial << " point " << k;
+#endif
+        } else {
+          worst = std::max(worst, relative_error(out[k], scalar));
+          EXPECT_LE(relative_error(out[k], scalar), 1e-13) << "trial " << trial << " point " << k;
+        }
+        if (kernel != BatchKernel::kBest) continue;
+        ++total;
+        behind += !in_front;
+        bool below = false;
+        for (const Vec3& corner : polygon) below = below || glm::dot(corner - p, n) < 0.0;
+        clipped += below && in_front;
+        grazing += k % 4 == 2 && in_front;
+      }
+    }
+  }
+  // Every kind of point occurred often.
+  EXPECT_GT(behind, total / 10);
+  EXPECT_GT(clipped, total / 20);
+  EXPECT_GT(grazing, total / 20);
+  std::printf("batched vs scalar: %zu points (%zu behind, %zu clipped, %zu grazing), worst %.2g\n",
+              total, behind, clipped, grazing, worst);
+}
+
+// The structure-of-arrays rule is the same rule, bit for bit (quads by their per-node path).
+TEST(Quadrature, StructureOfArraysIsTheSameRule) {
+  const std::vector<std::vector<Vec3>> cells = {
+      {{0, 0, 0}, {1, 0, 0}, {1.2, 0.9, 0.1}, {-0.1, 1.1, 0.05}},            // general quad
+      {{0, 0, 0}, {2, 0, 0}, {2, 1, 0}, {0, 1, 0}},                          // rectangle
+      {{0, 0, 0}, {1, 0, 0}, {0.3, 0.8, 0.2}},                               // triangle
+      {{0, 0, 0}, {1, 0, 0}, {1.3, 0.6, 0}, {0.5, 1.2, 0}, {-0.2, 0.7, 0}},  // pentagon
+      {{0, 0, 0}, {1, 0, 0}, {1, 0, 0}, {0, 0, 0}}};                         // zero-area quad
+  for (const std::vector<Vec3>& cell : cells)
+    for (int order : {1, 2, 3, 5, 8, 32}) {
+      std::vector<QuadraturePoint> points;
+      QuadratureRule rule;
+      element_quadrature(cell, order, points);
+      element_quadrature(cell, order, rule);
+      ASSERT_EQ(rule.size(), points.size());
+      for (size_t k = 0; k < points.size(); ++k) {
+        EXPECT_EQ(rule.x[k], points[k].position.x);
+        EXPECT_EQ(rule.y[k], points[k].position.y);
+        EXPECT_EQ(rule.z[k], points[k].position.z);
+        EXPECT_EQ(rule.weight[k], points[k].weight);
+      }
+    }
+}
+
+// The order rule without logarithms chooses the orders the logarithm formula chooses: on random
+// pairs, and on pairs built to sit on and a few ulp either side of every boundary between two
+// orders (where X = ln(C / (tol scale)) / (2 ln r) is an integer).
+TEST(FixedOrderRule, ChoosesTheOrdersOfTheLogarithmFormula) {
+  auto formula = [](double tolerance, int max_order, double gap, double diameter, double scale) {
+    if (!(gap > 0.0) || !(diameter > 0.0) || !(scale > 0.0)) return 0;
+    const double a = 1.0 + 2.0 * gap / diameter;
+    const double log_r = std::log(a + std::sqrt(a * a - 1.0));
+    const double m =
+        std::ceil((std::log(1000.0 / tolerance) - std::log(std::min(scale, 1.0))) / (2.0 * log_r));
+    if (!(m <= double(max_order))) return 0;
+    return std::max(1, int(m));
+  };
+  Pcg32 rng(11);
+  size_t compared = 0, fixed = 0;
+  for (double tolerance : {1e-2, 1e-4, 1e-7}) {
+    for (int max_order : {1, 8, 32}) {
+      const FixedOrderRule rule(tolerance, max_order);
+      for (int k = 0; k < 20000; ++k) {
+        const double gap = std::pow(10.0, 6.0 * rng.next_double() - 4.0);
+        const double diameter = std::pow(10.0, 2.0 * rng.next_double() - 1.0);
+        const double scale = k % 3 == 0 ? 1.0 : std::pow(10.0, -8.0 * rng.next_double());
+        const int expected = formula(tolerance, max_order, gap, diameter, scale);
+        EXPECT_EQ(rule.order(gap, diameter, scale), expected)
+            << gap << " " << diameter << " " << scale;
+        ++compared;
+        fixed += expected > 0;
+      }
+      // On the boundaries: r^(2m) scale = C / tolerance exactly (in real numbers), then nudged.
+      for (int m = 1; m <= std::min(max_order + 1, 33); ++m)
+        for (double scale : {1.0, 0.3, 1e-5}) {
+          const double log_r = std::log(1000.0 / tolerance / scale) / (2.0 * m);
+          const double a = std::cosh(log_r), diameter = 1.0;
+          const double gap = (a - 1.0) * diameter / 2.0;
+          double g = gap;
+          for (int step = 0; step < 8; ++step) g = std::nextafter(g, 0.0);
+          for (int step = 0; step < 17; ++step, g = std::nextafter(g, 1e300)) {
+            EXPECT_EQ(rule.order(g, diameter, scale),
+                      formula(tolerance, max_order, g, diameter, scale))
+                << "m " << m << " gap " << g << " scale " << scale;
+            ++compared;
+          }
+        }
+      // Degenerate input: what the formula gives.
+      for (double gap : {0.0, -1.0, std::nan("")})
+        EXPECT_EQ(rule.order(gap, 1.0, 1.0), formula(tolerance, max_order, gap, 1.0, 1.0));
+      EXPECT_EQ(rule.order(1.0, 1.0, 0.0), 0);
+      EXPECT_EQ(rule.order(1e300, 1e-300, 1.0), formula(tolerance, max_order, 1e300, 1e-300, 1.0));
+    }
+  }
+  EXPECT_GT(fixed, compared / 4);
+}
+
+}  // namespace
+}  // namespace radlab
