@@ -19,12 +19,8 @@ namespace {
 // stated error are reported with their worst entries and polygons. `used`: the matrix the
 // solvers use (symmetrised); else the method's own.
 void check_row_sums(Problem& problem, bool used) {
-  std::function<double(size_t, size_t)> unoccluded;
-  if (auto* raycast = dynamic_cast<const RaycastFormFactors*>(problem.method.get()))
-    unoccluded = [raycast](size_t i, size_t j) { return raycast->unoccluded_pair(i, j); };
   RowSumCheck& check = used ? problem.used_row_sums : problem.row_sums;
-  check = check_row_sums(problem.matrix, problem.scene(), problem.mesh,
-                         stated_row_sum_error(*problem.method), unoccluded);
+  check = check_row_sums(problem.matrix, problem.scene(), problem.mesh, *problem.method);
   if (!check.ok())
     log::warning(std::string(used ? "form factors (symmetrised): " : "form factors: ") +
                  check.report(problem.scene(), problem.mesh));
@@ -174,6 +170,10 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
     }
     if (cached) {
       problem->matrix = std::move(*cached);
+      // raycast's per-row visibility errors, kept beside the matrix (else rows the check needs
+      // are recomputed)
+      if (auto* raycast = dynamic_cast<const RaycastFormFactors*>(problem->method.get()))
+        load_row_sampling_errors(*raycast, cache->path(key).string(), n);
       log::info("form factors: " + problem->build.summary());
     } else {
       Progress progress("form factors (" + spec.ff_method + ", " + std::to_string(n) + " rows)",
@@ -195,8 +195,11 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
                            "': " + problem->raw_diagnostics.summary());
     check_row_sums(*problem, false);
     log_storage("form factors (double)", problem->matrix);
-    if (cache && !problem->build.cached && cache->store(key, problem->matrix, problem->build))
+    if (cache && !problem->build.cached && cache->store(key, problem->matrix, problem->build)) {
       problem->build.cache_file = cache->path(key).string();
+      if (auto* raycast = dynamic_cast<const RaycastFormFactors*>(problem->method.get()))
+        save_row_sampling_errors(*raycast, problem->build.cache_file);
+    }
     building.reset();
     if (symmetrise_ff) {
       log::info("form factors (as computed): " + problem->raw_diagnostics.summary());

@@ -16,10 +16,9 @@
 // everywhere when the scene is a convex enclosure, and for every pair whose shaft holds no
 // polygon that could block it (shaft.h; pairs_unoccluded).
 //
-// V's error is not controlled by `tolerance`: sampling noise (~1/sqrt(rays) per partly occluded
-// pair), and a bias where visibility correlates with the kernel (every ray counts the same,
-// whatever its cos cos / r^2), so a row of an open scene can exceed 1 by more than the quadrature
-// tolerance (builtin:cornell --subdiv 6: 1.0019 at most).
+// V's error is not controlled by `tolerance`: it is sampling noise, estimated per pair
+// (visibility.h) and carried into each row's stated error as 5 sigma of the row's sum
+// (row_sampling_error; diagnostics.h). Close pairs draw their rays in solid angle (visibility.h).
 //
 // Parameters: tolerance (relative quadrature error per pair, 1e-4), rays (per occludable pair,
 // 16), seed (0), max_order (largest fixed Gauss rule before going adaptive, 8), shafts (shaft
@@ -66,12 +65,25 @@ class RaycastFormFactors final : public FormFactorMethod {
   bool casts_rays() const { return visibility_.casts_rays(); }
   // F^u_ij, the pair without visibility (0 when it faces away or is coplanar), for diagnostics.
   double unoccluded_pair(size_t i, size_t j) const;
+  // The standard error of row i's sum from the visibility sampling, sqrt(sum_j (F^u_ij
+  // sigma(V_ij))^2) (pairs are traced independently), known once row i has been computed (a
+  // build of every row); a row not yet computed (a matrix loaded from the cache) is computed
+  // here once to find it. Thread-safe for distinct rows.
+  double row_sampling_error(size_t i) const;
+  // The largest row_sampling_error over the rows computed so far (0 when none).
+  double largest_row_sampling_error() const;
+  // Every row's sampling error as known (NaN for rows not computed), and the same restored
+  // (for a matrix loaded from the cache: its rows' errors kept beside it, so the row-sum check
+  // need not recompute rows; save_/load_row_sampling_errors). Not thread-safe.
+  std::vector<float> row_sampling_errors() const { return row_sigma_; }
+  void set_row_sampling_errors(std::vector<float> sigma) const;
   // The order of the Gauss rule the pair's F^u uses (order x order points per fan triangle or
   // quad), or 0 when it goes adaptive or has nothing in front of j's plane. For benchmarks.
   int fixed_order(size_t i, size_t j) const;
 
  private:
   double unoccluded(size_t i, size_t j, RowCost& cost) const;
+  double pair_with_variance(size_t i, size_t j, RowCost& cost, double& variance) const;
   int order_for(size_t i, size_t j, std::span<const Vec3> from, double kept) const;
 
   const Mesh& mesh_;
@@ -80,7 +92,16 @@ class RaycastFormFactors final : public FormFactorMethod {
   double plane_epsilon_ = 0.0;
   std::vector<double> radius_;  // largest centroid-to-corner distance per element
   Visibility visibility_;
+  mutable std::vector<float> row_sigma_;  // per row: row_sampling_error, NaN until computed
 };
+
+// Each row's visibility sampling error beside a cached matrix file (`matrix_file` + ".sigma":
+// n floats, written to a temporary name and renamed). load_ returns false (and changes nothing)
+// when the file is missing, of the wrong size or unreadable: the rows are then recomputed when
+// the check needs them.
+void save_row_sampling_errors(const RaycastFormFactors& method, const std::string& matrix_file);
+bool load_row_sampling_errors(const RaycastFormFactors& method, const std::string& matrix_file,
+                              size_t n);
 
 // False when j lies wholly behind or in i's plane, or i wholly behind or in j's (up to
 // `epsilon` metres): such a pair exchanges no light and costs nothing.

@@ -112,3 +112,76 @@ void stratified_points(std::span<const Vec3> c, int count, Pcg32& rng, std::vect
 }
 
 }  // namespace radlab
+
+namespace radlab {
+
+double spherical_triangle_area(const Vec3& a, const Vec3& b, const Vec3& c) {
+  const double triple = std::abs(glm::dot(a, glm::cross(b, c)));
+  const double denominator = 1.0 + glm::dot(a, b) + glm::dot(b, c) + glm::dot(c, a);
+  return 2.0 * std::atan2(triple, denominator);
+}
+
+SolidAngleSampler::SolidAngleSampler(const Vec3& x, std::span<const Vec3> corners,
+                                     const Vec3& normal)
+    : x_(x), corners_(corners), normal_(normal) {
+  if (corners.size() < 3 || corners.size() > kMaxCorners) return;
+  // Only the front (the side the winding faces) is seen; x on the plane sees nothing.
+  if (!(glm::dot(x - corners[0], normal) > 0.0)) return;
+  const Vec3 a = glm::normalize(corners[0] - x);
+  for (size_t f = 1; f + 1 < corners.size(); ++f) {
+    total_ += spherical_triangle_area(a, glm::normalize(corners[f] - x),
+                                      glm::normalize(corners[f + 1] - x));
+    cumulative_[f - 1] = total_;
+  }
+}
+
+Vec3 SolidAngleSampler::point(double u, double v) const {
+  const std::span<const Vec3> c = corners_;
+  if (!(total_ > 0.0)) return c[0];
+  // The fan triangle (c0, c[f+1], c[f+2]) whose share of the solid angle holds u; u rescaled.
+  const size_t triangles = c.size() - 2;
+  size_t f =
+      size_t(std::upper_bound(cumulative_, cumulative_ + triangles - 1, u * total_) - cumulative_);
+  const double before = f == 0 ? 0.0 : cumulative_[f - 1];
+  const double area = cumulative_[f] - before;
+  const Vec3 &p0 = c[0], &p1 = c[f + 1], &p2 = c[f + 2];
+  if (!(area > 1e-12)) {  // too small for the formulas below to be accurate: area-uniform
+    const double r = std::sqrt(u);
+    return (1.0 - r) * p0 + r * (1.0 - v) * p1 + r * v * p2;
+  }
+  const double area_hat = std::clamp(u * total_ - before, 0.0, area);
+  // Arvo 1995, with A = p0, B = p1, C = p2 as unit vectors from x: alpha is the angle at A, c
+  // the side AB. A sub-triangle of area area_hat with vertex C_hat on the arc AC is cut off, and
+  // the point is placed on the arc B C_hat so that the solid angle is uniform.
+  const Vec3 A = glm::normalize(p0 - x_), B = glm::normalize(p1 - x_), C = glm::normalize(p2 - x_);
+  const Vec3 ab = glm::cross(A, B), ac = glm::cross(A, C);
+  const double lengths = glm::length(ab) * glm::length(ac);
+  if (!(lengths > 0.0)) return p0;
+  const double cos_alpha = std::clamp(glm::dot(ab, ac) / lengths, -1.0, 1.0);
+  const double sin_alpha = std::abs(glm::dot(A, glm::cross(B, C))) / lengths;
+  const double cos_c = glm::dot(A, B);
+  const double s = std::sin(area_hat - std::acos(cos_alpha)),
+               t = std::cos(area_hat - std::acos(cos_alpha));
+  const double uu = t - cos_alpha, vv = s + sin_alpha * cos_c;
+  const double denominator = (vv * s + uu * t) * sin_alpha;
+  const double q = denominator != 0.0
+                       ? std::clamp(((vv * t - uu * s) * cos_alpha - vv) / denominator, -1.0, 1.0)
+                       : 1.0;
+  Vec3 towards_c = C - glm::dot(C, A) * A;
+  const double towards_c_length = glm::length(towards_c);
+  if (!(towards_c_length > 0.0)) return p0;
+  towards_c /= towards_c_length;
+  const Vec3 c_hat = q * A + std::sqrt(std::max(0.0, 1.0 - q * q)) * towards_c;
+  const double z = 1.0 - v * (1.0 - glm::dot(c_hat, B));
+  Vec3 towards_c_hat = c_hat - glm::dot(c_hat, B) * B;
+  const double towards_length = glm::length(towards_c_hat);
+  const Vec3 direction = towards_length > 0.0 ? z * B + std::sqrt(std::max(0.0, 1.0 - z * z)) *
+                                                            (towards_c_hat / towards_length)
+                                              : B;
+  // Where the direction meets the triangle's plane (it lies in the triangle's cone).
+  const double along = glm::dot(direction, normal_);
+  if (!(along < 0.0)) return (p0 + p1 + p2) / 3.0;  // rounding at a grazing edge
+  return x_ + direction * (glm::dot(p0 - x_, normal_) / along);
+}
+
+}  // namespace radlab

@@ -57,6 +57,39 @@ class StratifiedSampler {
   std::vector<double> fan_;              // an n-gon's cumulative fan areas, ending at 1
 };
 
+// Points of a convex polygon seen from a point x, distributed uniformly in the solid angle the
+// polygon subtends at x: Arvo's stratified sampling of spherical triangles (J. Arvo, "Stratified
+// sampling of spherical triangles", SIGGRAPH 1995) on the polygon's fan triangles, each chosen
+// with probability proportional to its solid angle (Van Oosterom & Strackee's formula). A point
+// drawn this way has density cos_y / (r^2 Omega) on the polygon (y's cosine, r = |y - x|), so
+// for the form-factor kernel cos_x cos_y / r^2 the estimate Omega cos_x of its integral over the
+// polygon has weights bounded by Omega <= 2 pi, where uniform area sampling's A cos cos / r^2 is
+// unbounded for a polygon close to x. Used by visibility for pairs close compared with their
+// size. Fan triangles too small for the formula's precision (below 1e-12 sr) are sampled
+// uniformly in area (their share of the solid angle is then negligible). Keeps a view of
+// `corners` (at most kMaxCorners), which must outlive it; solid_angle() is 0 when x lies in the
+// polygon's plane or behind it, and then point() returns the first corner.
+class SolidAngleSampler {
+ public:
+  static constexpr size_t kMaxCorners = 32;
+  // `normal`: the polygon's front normal (x must be in front of it to see anything).
+  SolidAngleSampler(const Vec3& x, std::span<const Vec3> corners, const Vec3& normal);
+  double solid_angle() const { return total_; }
+  // The point for (u, v) in [0, 1)^2; stratifying (u, v) stratifies the directions.
+  Vec3 point(double u, double v) const;
+
+ private:
+  Vec3 x_;
+  std::span<const Vec3> corners_;
+  double total_ = 0.0;
+  Vec3 normal_;
+  double cumulative_[kMaxCorners] = {};  // solid angle up to and including each fan triangle
+};
+
+// The solid angle of the triangle of unit vectors (a, b, c): Van Oosterom & Strackee (1983),
+// tan(Omega / 2) = |a . (b x c)| / (1 + a.b + b.c + c.a).
+double spherical_triangle_area(const Vec3& a, const Vec3& b, const Vec3& c);
+
 // `count` strata of an m x m grid (m = `side`, count <= m^2), row-major indices: all of them in
 // order when count = m^2 (no random numbers drawn), else `count` distinct cells chosen at random.
 void choose_strata(int count, int side, Pcg32& rng, std::vector<uint32_t>& out);

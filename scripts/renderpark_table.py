@@ -32,6 +32,10 @@ def run(radlab, path):
     m = re.search(r"^row sums\s+row sums of F \[([^,]+), ([^\]]+)\]; (\d+) rows? above 1 \+ (\S+)",
                   out, re.M)
     row["min"], row["max"], row["above"], row["stated"] = m.group(1), m.group(2), int(m.group(3)), m.group(4)
+    # raycast checks each row against tolerance + storage + 5 sigma of its own visibility sampling
+    sigma = re.search(r"largest so far (\S+);", out)
+    if sigma:
+        row["stated"] += f" + 5 σ_i, σ_i ≤ {sigma.group(1)}"
     r = re.search(r"^repairs\s+(.*)$", out, re.M).group(1)
     n = [int(x) for x in re.findall(r"(\d+)", r)]
     parts = []
