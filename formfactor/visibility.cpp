@@ -245,6 +245,34 @@ static double ratio_standard_error(double W, double Wv, double S2, double S2v) {
   return std::sqrt(std::max(spread, p * (1.0 - p) / (n + 1.0)));
 }
 
+// The kernel-weighted visible fraction of one pair's rays, accumulated packet by packet (both
+// tracers below), and its standard error (ratio_standard_error).
+struct WeightedVisibility {
+  double weight_all = 0.0, weight_visible = 0.0, square_all = 0.0, square_visible = 0.0;
+  int visible = 0;
+
+  void add(const bool* blocked, const float* weight, int count) {
+    for (int lane = 0; lane < count; ++lane) {
+      visible += blocked[lane] ? 0 : 1;
+      const double w = double(weight[lane]);
+      weight_all += w;
+      weight_visible += blocked[lane] ? 0.0 : w;
+      square_all += w * w;
+      square_visible += blocked[lane] ? 0.0 : w * w;
+    }
+  }
+  // V of R rays in `steps` steps (the memo's resolution), the same whichever row asks, and its
+  // standard error in `sigma`. Equal weights when every kernel sample vanished (points on the
+  // planes' common line).
+  int quantised(int R, int steps, double& sigma) const {
+    sigma = weight_all > 0.0
+                ? ratio_standard_error(weight_all, weight_visible, square_all, square_visible)
+                : ratio_standard_error(R, visible, R, visible);
+    const double v = weight_all > 0.0 ? weight_visible / weight_all : double(visible) / R;
+    return int(std::lround(std::clamp(v, 0.0, 1.0) * steps));
+  }
+};
+
 int Visibility::trace(size_t i, size_t j, int R, RowCost& cost, double& sigma) const {
   // Symmetric in i and j: the same points, the same rays, whichever row asks.
   const size_t lo = std::min(i, j), hi = std::max(i, j);
@@ -282,7 +310,6 @@ int Visibility::trace(size_t i, size_t j, int R, RowCost& cost, double& sigma) c
   alignas(64) uint32_t strata_lo[16], strata_hi[16], bits_lo[16], bits_hi[16];
   alignas(64) float qx[16], qy[16], qz[16];
   bool blocked[16];
-  int visible = 0;
   // Each ray weighs its kernel cos_lo cos_hi / r^2 (below): V = sum over unblocked rays / sum
   // over all, the ratio estimator of (integral of K V) / (integral of K) from the same points.
   const Vec3 n_lo = mesh_.normal[lo], n_hi = mesh_.normal[hi];
@@ -291,7 +318,7 @@ int Visibility::trace(size_t i, size_t j, int R, RowCost& cost, double& sigma) c
   alignas(64) float weight[16];
   const float lift_lo = float(8.0 * (off_plane_[lo] + float_error_));
   const float lift_hi = float(8.0 * (off_plane_[hi] + float_error_));
-  double weight_all = 0.0, weight_visible = 0.0, square_all = 0.0, square_visible = 0.0;
+  WeightedVisibility fraction;
   for (int start = 0; start < R; start += 16) {
     const int count = std::min(16, R - start);
     packet.count = count;
@@ -333,22 +360,9 @@ int Visibility::trace(size_t i, size_t j, int R, RowCost& cost, double& sigma) c
         weight[lane] *= float(from.area_weight(strata_lo[lane], bits_lo[lane]) *
                               to.area_weight(strata_hi[lane], bits_hi[lane]));
     embree_->occluded16(packet, blocked, skip_lo, skip_hi);
-    for (int lane = 0; lane < count; ++lane) {
-      visible += blocked[lane] ? 0 : 1;
-      const double w = double(weight[lane]);
-      weight_all += w;
-      weight_visible += blocked[lane] ? 0.0 : w;
-      square_all += w * w;
-      square_visible += blocked[lane] ? 0.0 : w * w;
-    }
+    fraction.add(blocked, weight, count);
   }
-  sigma = weight_all > 0.0
-              ? ratio_standard_error(weight_all, weight_visible, square_all, square_visible)
-              : ratio_standard_error(R, visible, R, visible);
-  // In kSteps steps (the memo's resolution), the same whichever row asks. Equal weights when
-  // every kernel sample vanished (points on the planes' common line).
-  const double v = weight_all > 0.0 ? weight_visible / weight_all : double(visible) / R;
-  return int(std::lround(std::clamp(v, 0.0, 1.0) * kSteps));
+  return fraction.quantised(R, kSteps, sigma);
 }
 
 }  // namespace radlab
@@ -400,8 +414,7 @@ int Visibility::trace_close(size_t lo, size_t hi, const FacingParts& parts, int 
   thread_local SegmentPacket packet;
   alignas(64) float weight[16];
   bool blocked[16];
-  double weight_all = 0.0, weight_visible = 0.0, square_all = 0.0, square_visible = 0.0;
-  int visible = 0;
+  WeightedVisibility fraction;
   for (int start = 0; start < R; start += 16) {
     const int count = std::min(16, R - start);
     packet.count = count;
@@ -432,20 +445,9 @@ int Visibility::trace_close(size_t lo, size_t hi, const FacingParts& parts, int 
           1.0f - std::min(eps, std::max(lift_to / std::max(c_to, 1e-30f), 2.4e-7f));
     }
     embree_->occluded16(packet, blocked, skip_lo, skip_hi);
-    for (int lane = 0; lane < count; ++lane) {
-      visible += blocked[lane] ? 0 : 1;
-      const double w = double(weight[lane]);
-      weight_all += w;
-      weight_visible += blocked[lane] ? 0.0 : w;
-      square_all += w * w;
-      square_visible += blocked[lane] ? 0.0 : w * w;
-    }
+    fraction.add(blocked, weight, count);
   }
-  sigma = weight_all > 0.0
-              ? ratio_standard_error(weight_all, weight_visible, square_all, square_visible)
-              : ratio_standard_error(R, visible, R, visible);
-  const double V = weight_all > 0.0 ? weight_visible / weight_all : double(visible) / R;
-  return int(std::lround(std::clamp(V, 0.0, 1.0) * kSteps));
+  return fraction.quantised(R, kSteps, sigma);
 }
 
 }  // namespace radlab
