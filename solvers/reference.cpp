@@ -41,6 +41,27 @@ struct ChannelData {
 // certify to 1e-12 of max B (the bound is ||(I-J)^-1|| = 1000 times this rounding bound).
 constexpr size_t kBlock = 128;
 
+// sum_j row[j] x[j] in long double, summed in blocks of kBlock (the rounding bound's gamma
+// above), with the sum of the products' magnitudes in `magnitude`.
+template <class T>
+long double blocked_dot(const T* row, std::span<const double> x, long double& magnitude) {
+  const size_t n = x.size();
+  long double sum = 0;
+  magnitude = 0;
+  for (size_t j0 = 0; j0 < n; j0 += kBlock) {
+    long double part = 0, part_magnitude = 0;
+    const size_t j1 = std::min(n, j0 + kBlock);
+    for (size_t j = j0; j < j1; ++j) {
+      const long double p = Long(row[j]) * Long(x[j]);
+      part += p;
+      part_magnitude += std::abs(p);
+    }
+    sum += part;
+    magnitude += part_magnitude;
+  }
+  return sum;
+}
+
 // r = b - (I - J) x for one channel in long double; returns max_i |r_i| + rounding bound.
 double residual(const FormFactorMatrix& F, std::span<const double> rho, std::span<const double> b,
                 std::span<const double> x, std::vector<double>* r_out) {
@@ -52,19 +73,7 @@ double residual(const FormFactorMatrix& F, std::span<const double> rho, std::spa
       [&](const tbb::blocked_range<size_t>& range, double worst) {
         for (size_t i = range.begin(); i != range.end(); ++i) {
           long double sum = 0, magnitude = 0;
-          F.visit_row(i, [&](const auto* row) {
-            for (size_t j0 = 0; j0 < n; j0 += kBlock) {
-              long double part = 0, part_magnitude = 0;
-              const size_t j1 = std::min(n, j0 + kBlock);
-              for (size_t j = j0; j < j1; ++j) {
-                const long double p = Long(row[j]) * Long(x[j]);
-                part += p;
-                part_magnitude += std::abs(p);
-              }
-              sum += part;
-              magnitude += part_magnitude;
-            }
-          });
+          F.visit_row(i, [&](const auto* row) { sum = blocked_dot(row, x, magnitude); });
           const long double r = Long(b[i]) - Long(x[i]) + Long(rho[i]) * sum;
           const long double mag =
               std::abs(Long(b[i])) + std::abs(Long(x[i])) + Long(rho[i]) * magnitude;
@@ -453,18 +462,8 @@ StreamedCheck streamed_check(const System& system, const FormFactorMethod& metho
           for (int c = 0; c < channels; ++c) {
             const auto x = B.channel(c);
             const double b = system.emission().at(c, i), rho = system.reflectance().at(c, i);
-            long double total = 0, magnitude = 0;
-            for (size_t j0 = 0; j0 < n; j0 += kBlock) {
-              long double part = 0, part_magnitude = 0;
-              const size_t j1 = std::min(n, j0 + kBlock);
-              for (size_t j = j0; j < j1; ++j) {
-                const long double p = Long(row[j]) * Long(x[j]);
-                part += p;
-                part_magnitude += std::abs(p);
-              }
-              total += part;
-              magnitude += part_magnitude;
-            }
+            long double magnitude = 0;
+            const long double total = blocked_dot(row.data(), x, magnitude);
             const long double r = Long(b) - Long(x[i]) + Long(rho) * total;
             const long double mag =
                 std::abs(Long(b)) + std::abs(Long(x[i])) + Long(rho) * magnitude;

@@ -1,8 +1,32 @@
-// Experiment files shared by the sweep tests (experiments_test, reliability_data_test): one
-// definition, so a change of the format changes them together.
+// Experiment files and CSV helpers shared by the sweep tests (experiments_test,
+// reliability_data_test, workflow_test): one definition, so a change of the format changes them
+// together.
 #pragma once
 
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "core/csv_reader.h"
+
 namespace radlab::testing {
+
+// The table's rows without the named columns (e.g. the ones that measure time), for comparing
+// two runs that must agree in everything else.
+inline std::vector<std::vector<std::string>> without_columns(
+    const CsvTable& table, const std::vector<std::string>& columns) {
+  std::vector<size_t> keep;
+  for (size_t k = 0; k < table.header.size(); ++k)
+    if (std::find(columns.begin(), columns.end(), table.header[k]) == columns.end())
+      keep.push_back(k);
+  std::vector<std::vector<std::string>> out;
+  for (const auto& row : table.rows) {
+    std::vector<std::string> kept;
+    for (size_t k : keep) kept.push_back(row[k]);
+    out.push_back(kept);
+  }
+  return out;
+}
 
 // Two gauss-seidel runs (omega 1 and 1.3) on a small cube, 200 rows each.
 inline constexpr const char* kTwoRuns = R"(name = "tiny"

@@ -105,22 +105,6 @@ TEST(ExperimentSpec, ErrorsNameFileAndLine) {
   }
 }
 
-// Everything but the columns that measure time.
-std::vector<std::vector<std::string>> without_time(const CsvTable& table,
-                                                   const std::vector<std::string>& time_columns) {
-  std::vector<size_t> keep;
-  for (size_t k = 0; k < table.header.size(); ++k)
-    if (std::find(time_columns.begin(), time_columns.end(), table.header[k]) == time_columns.end())
-      keep.push_back(k);
-  std::vector<std::vector<std::string>> out;
-  for (const auto& row : table.rows) {
-    std::vector<std::string> kept;
-    for (size_t k : keep) kept.push_back(row[k]);
-    out.push_back(kept);
-  }
-  return out;
-}
-
 TEST(Sweep, WritesDocumentedColumnsAndRepeatsExactly) {
   TempDir dir;
   ExperimentSpec spec = read_experiment(dir.write("e.toml", kTwoRuns));
@@ -137,9 +121,10 @@ TEST(Sweep, WritesDocumentedColumnsAndRepeatsExactly) {
   EXPECT_EQ(summary1.header, summary_columns());
   EXPECT_EQ(summary1.rows.size(), 2u);
   const std::vector<std::string> trace_time = {"seconds"};
-  EXPECT_EQ(without_time(trace1, trace_time), without_time(trace2, trace_time));
-  EXPECT_EQ(without_time(summary1, summary_time_columns()),
-            without_time(summary2, summary_time_columns()));
+  EXPECT_EQ(testing::without_columns(trace1, trace_time),
+            testing::without_columns(trace2, trace_time));
+  EXPECT_EQ(testing::without_columns(summary1, summary_time_columns()),
+            testing::without_columns(summary2, summary_time_columns()));
   EXPECT_TRUE(std::filesystem::exists(
       dir.file("first/runs/gauss-seidel_scene_cube_rho_0.8_omega_1.run.json")));
   // Both runs end on their budget, below the initial error.
@@ -193,10 +178,11 @@ TEST(Sweep, ShardsMergeToTheUnsplitResult) {
   run_sweep(spec, {dir.file("s1"), 1, 2, "test"});
   EXPECT_EQ(merge_sweeps({dir.file("s1"), dir.file("s0")}, dir.file("merged"), "radlab merge"), 4u);
   const std::vector<std::string> trace_time = {"seconds"};
-  EXPECT_EQ(without_time(read_csv(dir.file("merged/trace.csv")), trace_time),
-            without_time(read_csv(dir.file("whole/trace.csv")), trace_time));
-  EXPECT_EQ(without_time(read_csv(dir.file("merged/summary.csv")), summary_time_columns()),
-            without_time(read_csv(dir.file("whole/summary.csv")), summary_time_columns()));
+  EXPECT_EQ(testing::without_columns(read_csv(dir.file("merged/trace.csv")), trace_time),
+            testing::without_columns(read_csv(dir.file("whole/trace.csv")), trace_time));
+  EXPECT_EQ(
+      testing::without_columns(read_csv(dir.file("merged/summary.csv")), summary_time_columns()),
+      testing::without_columns(read_csv(dir.file("whole/summary.csv")), summary_time_columns()));
   // The same files in runs/, images/ and coverage/, and the coverage files byte for byte.
   for (const char* folder : {"runs", "images", "coverage"}) {
     const auto whole = files_in(dir.file(std::string("whole/") + folder));

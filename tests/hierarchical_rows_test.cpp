@@ -17,6 +17,7 @@
 #include "solvers/hierarchical_refine.h"
 #include "solvers/reference.h"
 #include "solvers/registry.h"
+#include "tests/hierarchical_support.h"
 #include "tests/test_support.h"
 
 namespace radlab {
@@ -113,26 +114,9 @@ TEST(HierarchicalDegenerate, ZeroAreaFanTriangleMakesNoLinkAndNoNaN) {
   for (double row : effective_rows(b.h)) EXPECT_TRUE(std::isfinite(row));
 }
 
-struct Setup {
-  Scene scene;
-  Mesh mesh;
-  FormFactorMatrix matrix;
-  std::unique_ptr<System> system;
-  Reference reference;
-};
-
+using Setup = testing::HierarchicalSetup;
 std::unique_ptr<Setup> setup(const std::string& spec, int subdiv) {
-  auto s = std::make_unique<Setup>();
-  s->scene = make_builtin_scene(spec);
-  validate_scene(s->scene);
-  s->mesh = build_mesh(s->scene, {subdiv, 0.0});
-  RaycastFormFactors ff(s->scene, s->mesh, RaycastOptions{});
-  BuildReport report;
-  s->matrix = build_matrix(ff, s->mesh.size(), Precision::kDouble, report);
-  symmetrise(s->matrix, s->mesh.area);
-  s->system = std::make_unique<System>(s->scene, s->mesh, s->matrix);
-  s->reference = compute_reference(*s->system, s->matrix);
-  return s;
+  return testing::hierarchical_setup(spec, subdiv);
 }
 
 // Runs the solver (Gauss–Seidel, coarse links: rho = 0.999 needs about 13,000 passes) until it

@@ -24,6 +24,7 @@
 #include "solvers/hierarchical_refine.h"
 #include "solvers/reference.h"
 #include "solvers/registry.h"
+#include "tests/hierarchical_support.h"
 #include "tests/test_support.h"
 
 namespace radlab {
@@ -184,28 +185,9 @@ TEST(HierarchicalRefine, VisibilityClassesBehindABlocker) {
   EXPECT_GT(r.stats.occluded, 0u);
 }
 
-// A scene, its mesh, a dense raycast matrix and the certified reference.
-struct Setup {
-  Scene scene;
-  Mesh mesh;
-  FormFactorMatrix matrix;
-  std::unique_ptr<System> system;
-  Reference reference;
-};
-
+using Setup = testing::HierarchicalSetup;
 std::unique_ptr<Setup> setup(const std::string& spec, int subdiv) {
-  auto s = std::make_unique<Setup>();
-  s->scene = make_builtin_scene(spec);
-  validate_scene(s->scene);
-  s->mesh = build_mesh(s->scene, {subdiv, 0.0});
-  RaycastOptions options;
-  RaycastFormFactors ff(s->scene, s->mesh, options);
-  BuildReport report;
-  s->matrix = build_matrix(ff, s->mesh.size(), Precision::kDouble, report);
-  symmetrise(s->matrix, s->mesh.area);
-  s->system = std::make_unique<System>(s->scene, s->mesh, s->matrix);
-  s->reference = compute_reference(*s->system, s->matrix);
-  return s;
+  return testing::hierarchical_setup(spec, subdiv);
 }
 
 std::unique_ptr<Solver> make(const std::vector<std::string>& params) {

@@ -23,6 +23,7 @@
 
 #include "core/csv_reader.h"
 #include "experiments/summary.h"
+#include "tests/experiment_fixtures.h"
 #include "tests/test_support.h"
 
 namespace radlab {
@@ -86,29 +87,14 @@ int jobs(const std::map<std::string, int>& table, const std::string& rule) {
   return it == table.end() ? 0 : it->second;
 }
 
-std::vector<std::vector<std::string>> without(const CsvTable& table,
-                                              const std::vector<std::string>& columns) {
-  std::vector<size_t> keep;
-  for (size_t k = 0; k < table.header.size(); ++k)
-    if (std::find(columns.begin(), columns.end(), table.header[k]) == columns.end())
-      keep.push_back(k);
-  std::vector<std::vector<std::string>> out;
-  for (const auto& row : table.rows) {
-    std::vector<std::string> kept;
-    for (size_t k : keep) kept.push_back(row[k]);
-    out.push_back(kept);
-  }
-  return out;
-}
-
 void expect_same_results(const std::string& sweep, const std::string& reference) {
-  EXPECT_EQ(without(read_csv(sweep + "/trace.csv"), {"seconds"}),
-            without(read_csv(reference + "/trace.csv"), {"seconds"}))
+  EXPECT_EQ(testing::without_columns(read_csv(sweep + "/trace.csv"), {"seconds"}),
+            testing::without_columns(read_csv(reference + "/trace.csv"), {"seconds"}))
       << sweep;
   const CsvTable summary = read_csv(sweep + "/summary.csv");
   EXPECT_EQ(summary.rows.size(), 16u);  // 4 problems x 4 solver settings
-  EXPECT_EQ(without(summary, summary_time_columns()),
-            without(read_csv(reference + "/summary.csv"), summary_time_columns()))
+  EXPECT_EQ(testing::without_columns(summary, summary_time_columns()),
+            testing::without_columns(read_csv(reference + "/summary.csv"), summary_time_columns()))
       << sweep;
 }
 
