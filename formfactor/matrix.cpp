@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <stdexcept>
 #include <type_traits>
@@ -86,29 +87,32 @@ void FormFactorMatrix::set(size_t i, size_t j, double value) {
 }
 
 const void* FormFactorMatrix::data() const {
-  if (layout_ == Layout::kSparse) {
-    flat_.clear();
-    flat_.reserve(bytes());
-    auto append = [&](const auto& v) {
-      const char* p = reinterpret_cast<const char*>(v.data());
-      flat_.insert(flat_.end(), p, p + v.size() * sizeof(v[0]));
-    };
-    for (const SparseRow& row : rows_) {
-      append(row.run);
-      append(row.f32);
-      append(row.f64);
-    }
-    return flat_.data();
-  }
+  if (layout_ == Layout::kSparse)
+    throw std::logic_error("FormFactorMatrix::data(): dense layout only");
   return precision_ == Precision::kFloat ? static_cast<const void*>(f32_.data())
                                          : static_cast<const void*>(f64_.data());
 }
 
 void* FormFactorMatrix::data() {
-  // Sparse: the copy (writes to it change nothing; the cache reads the rows themselves).
-  if (layout_ == Layout::kSparse) return const_cast<void*>(std::as_const(*this).data());
-  return precision_ == Precision::kFloat ? static_cast<void*>(f32_.data())
-                                         : static_cast<void*>(f64_.data());
+  return const_cast<void*>(std::as_const(*this).data());
+}
+
+bool identical_entries(const FormFactorMatrix& a, const FormFactorMatrix& b) {
+  if (a.size() != b.size() || a.precision() != b.precision()) return false;
+  std::vector<double> row(a.size());
+  for (size_t i = 0; i < a.size(); ++i) {
+    a.visit_row(i, [&](const auto* x) {
+      for (size_t j = 0; j < row.size(); ++j) row[j] = double(x[j]);
+    });
+    bool same = true;
+    b.visit_row(i, [&](const auto* y) {
+      for (size_t j = 0; j < row.size() && same; ++j)
+        // float -> double is exact, so equal doubles are equal entries (the sign for zeros).
+        same = double(y[j]) == row[j] && std::signbit(double(y[j])) == std::signbit(row[j]);
+    });
+    if (!same) return false;
+  }
+  return true;
 }
 
 std::string BuildReport::summary() const {

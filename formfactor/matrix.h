@@ -49,9 +49,9 @@ class FormFactorMatrix {
   bool sparse() const { return layout_ == Layout::kSparse; }
   // Bytes of the entries (and of the runs when sparse).
   size_t bytes() const;
-  // The entries as raw bytes, bytes() of them: dense, the n*n entries, row-major; sparse, every
-  // row's runs then values, concatenated in row order (a copy, made by this call; not safe in
-  // parallel with itself or with writes). Writing through it changes the dense layout only.
+  // Dense layout only: the n*n entries as raw bytes, row-major (the cache reads and writes them).
+  // A sparse matrix's bytes are its rows' runs and values (matrix_cache.cpp reads them row by
+  // row); compare matrices with identical_entries().
   const void* data() const;
   void* data();
 
@@ -178,12 +178,14 @@ class FormFactorMatrix {
   Layout layout_ = Layout::kDense;
   std::vector<float> f32_;  // dense layout
   std::vector<double> f64_;
-  std::vector<SparseRow> rows_;     // sparse layout
-  mutable std::vector<char> flat_;  // sparse: data()'s copy
+  std::vector<SparseRow> rows_;  // sparse layout
 };
 
 // The same matrix with its entries rounded to `precision` (to nearest), in the same layout.
 FormFactorMatrix convert_precision(const FormFactorMatrix& matrix, Precision precision);
+
+// The same size, precision and entries, bit for bit, whatever the layouts (dense or sparse).
+bool identical_entries(const FormFactorMatrix& a, const FormFactorMatrix& b);
 
 struct BuildReport {
   RowCost cost;

@@ -74,7 +74,7 @@ TEST(MatrixCache, RoundTrip) {
     ASSERT_TRUE(loaded.has_value());
     ASSERT_EQ(loaded->size(), m.size());
     EXPECT_EQ(loaded->precision(), precision);
-    EXPECT_EQ(std::memcmp(loaded->data(), m.data(), m.bytes()), 0);
+    EXPECT_TRUE(identical_entries(*loaded, m));
     EXPECT_TRUE(loaded_report.cached);
     EXPECT_EQ(loaded_report.cost.rays, 1234u);
     EXPECT_EQ(loaded_report.cost.pairs_unoccluded, 5u);
@@ -196,7 +196,7 @@ TEST(PrepareProblem, CachesTheMatrixAndSymmetrisesOnRequest) {
   auto second = prepare_problem(spec);
   EXPECT_TRUE(second->build.cached);
   ASSERT_EQ(second->matrix.size(), first->matrix.size());
-  EXPECT_EQ(std::memcmp(second->matrix.data(), first->matrix.data(), first->matrix.bytes()), 0);
+  EXPECT_TRUE(identical_entries(second->matrix, first->matrix));
   EXPECT_EQ(second->build.cost.kernel_evaluations, first->build.cost.kernel_evaluations);
 
   // The default with a dense matrix is symmetrise=true: the same cached matrix, symmetrised after
