@@ -244,7 +244,7 @@ ExperimentSpec read_experiment(const std::string& path) {
   }
 
   if (const toml::table* b = root["budget"].as_table()) {
-    r.only(*b, {"steps", "rows", "seconds", "tol"}, "[budget]");
+    r.only(*b, {"steps", "rows", "seconds", "tol", "tol_of"}, "[budget]");
     // A budget that cannot mean anything is an error, never a silent default (or a hang: a NaN
     // time limit is never reached).
     if (auto n = (*b)["steps"]) {
@@ -264,6 +264,15 @@ ExperimentSpec read_experiment(const std::string& path) {
       spec.budget.tol = r.number(*n.node(), "budget.tol");
       if (!(*spec.budget.tol > 0 && *spec.budget.tol < 1))
         r.fail(*n.node(), "budget.tol must lie in (0,1) (a bound relative to max B*)");
+    }
+    // What the tolerance is relative to, as `radlab solve --tol-of`: max B* (the default) or the
+    // reflected light max(B* - E), which a tiny bright emitter would otherwise dominate.
+    if (auto n = (*b)["tol_of"]) {
+      const std::string of = r.string(*n.node(), "budget.tol_of");
+      if (of != "max-b" && of != "reflected")
+        r.fail(*n.node(), "budget.tol_of must be \"max-b\" or \"reflected\", got \"" + of + "\"");
+      if (!spec.budget.tol) r.fail(*n.node(), "budget.tol_of needs budget.tol");
+      spec.budget.tol_of_reflected = of == "reflected";
     }
   }
 

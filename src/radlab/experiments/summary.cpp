@@ -64,7 +64,8 @@ const std::vector<std::string>& summary_columns() {
       "rows_to_rms_rel_reflected_1e-3",
       "seconds_to_rms_rel_reflected_1e-3",
       "pair_evals_to_rms_rel_reflected_1e-3",
-      "tolerance_reached"};
+      "tolerance_reached",
+      "bound_relative_reflected"};
   // clang-format on
   return columns;
 }
@@ -191,6 +192,7 @@ void write_summary_row(CsvWriter& csv, const SummaryInputs& in, const RunResult&
       csv.add(first_reach(r.history, threshold, axis, ReachMetric::kRmsRelReflected));
   // true / false with a tolerance in the budget; empty without one.
   csv.add(std::string(r.tolerance_asked ? (r.tolerance_reached ? "true" : "false") : ""));
+  csv.add(r.final_bound_relative_reflected);  // ||B-B*||_inf / max(B* - E), as in run.json
   csv.end_row();
 }
 
