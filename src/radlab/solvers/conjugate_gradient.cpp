@@ -23,9 +23,9 @@
 //   differs from the unsymmetrised System's (and its reference's) by the reciprocity defect.
 // Paper: none of the three; Hestenes & Stiefel 1952, on the symmetric formulation that
 //   reciprocity allows (e.g. Cohen & Wallace 1993 ch. 5 discuss it for radiosity).
-// Parameters: preconditioner (jacobi | none, default jacobi), symmetrise (bool, default false),
-//   reciprocity_tolerance (default 1e-6: float storage alone leaves a relative defect of up to
-//   ~1.2e-7 in a symmetrised matrix).
+// Parameters: preconditioner (jacobi | none), symmetrise (bool), reciprocity_tolerance (float
+//   storage alone leaves a relative defect of up to ~1.2e-7 in a symmetrised matrix, so the
+//   default must lie above that); defaults: `radlab solvers` (ConjugateGradientOptions).
 // Cost per step: one matrix-vector product = one form-factor row per element that reflects in
 //   some channel (black elements are eliminated), plus O(n) vector work. init() costs the same
 //   rows once more (the initial residual), and with the check an O(n^2) pass over the matrix.

@@ -6,7 +6,8 @@
 //   to the solution (all terms are non-negative).
 // Paper: the "traditional" radiosity solution of Cohen & Greenberg 1985, the "Gathering Only"
 //   curve of Cohen et al. 1988 (Fig. 7); Gortler, Cohen & Slusallek 1994 for SOR.
-// Parameters: omega (relaxation factor in (0,2), default 1 = plain Gauss–Seidel).
+// Parameters: omega (relaxation factor in (0,2); 1 is plain Gauss–Seidel); defaults:
+//   `radlab solvers` (GaussSeidelOptions).
 // Cost per step: one form-factor row (n multiply-adds per channel).
 // Left out: per-element adaptive ordering (that is Southwell, i.e. sorted shooting's cousin).
 #include <cstdio>

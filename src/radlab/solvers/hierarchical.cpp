@@ -12,7 +12,7 @@
 //   refinement (the oracle weighs F by rho_p B_q / mean B, the scene's area-weighted mean
 //   radiosity, so refinement waits for light to arrive; needs levels >= 2, since the first pass
 //   sees only E).
-// Row normalisation (rows=leaf, the default; hierarchical_rows.h): every leaf scales what it
+// Row normalisation (rows=leaf; hierarchical_rows.h): every leaf scales what it
 //   gathers to its own 2 x 2 rule's row sum over the links on its path, clamped at 1, so no
 //   leaf's row sums above 1 (the paper's link sums reach 1.5 and diverge at rho near 1).
 // Measured on the run's mesh: the solution is the area average of the hierarchy's leaves over
@@ -23,7 +23,7 @@
 // Parameters: feps (link threshold on the estimated form factor), aeps (smallest splittable
 //   node, as a fraction of the scene's total area: scale-free, so one default serves the built-in
 //   rooms and the RenderPark scenes), refine (f or bf), levels, gathers, order, rows (leaf or
-//   links), seed (jitter).
+//   links), seed (jitter); defaults: `radlab solvers` (HierarchicalOptions).
 // Cost per step: one refinement pass (the first step, and the first of each multigrid level) or
 //   one gather + push/pull pass over all links and nodes. Work charged: 2 element-pair form
 //   factors per refinement test and per link made, 2 per link per gather pass (a link's two
@@ -363,17 +363,16 @@ SolverInfo hierarchical_solver_info() {
           "projected on the mesh",
           "Hanrahan, Salzman & Aupperle 1991",
           "one refinement pass or one gather + push/pull pass over all links",
-          {{"feps", "0.01", "link when both estimated form factors are below this (> 0)"},
-           {"aeps", "1e-04",
-            "smallest splittable node, as a fraction of the scene's total area (>= 0)"},
-           {"refine", "f", "refinement oracle: f (form factor) or bf (rho B F / mean B)"},
-           {"levels", "1", "multigrid levels: feps*4^(levels-1) ... feps (bf needs >= 2)"},
-           {"gathers", "4", "gather passes at each multigrid level but the last"},
-           {"order", "jacobi", "gather order: jacobi or gauss-seidel"},
-           {"rows", "leaf",
+          {{"feps", "", "link when both estimated form factors are below this (> 0)"},
+           {"aeps", "", "smallest splittable node, as a fraction of the scene's total area (>= 0)"},
+           {"refine", "", "refinement oracle: f (form factor) or bf (rho B F / mean B)"},
+           {"levels", "", "multigrid levels: feps*4^(levels-1) ... feps (bf needs >= 2)"},
+           {"gathers", "", "gather passes at each multigrid level but the last"},
+           {"order", "", "gather order: jacobi or gauss-seidel"},
+           {"rows", "",
             "leaf: each leaf's gathered light scaled to its own 2x2-rule row sum (<= 1); links: "
             "the paper's unnormalised sum (diverges at rho near 1)"},
-           {"seed", "1", "seed of the visibility rays' jitter"}},
+           {"seed", "", "seed of the visibility rays' jitter"}},
           [](ParamBag& bag) -> std::unique_ptr<Solver> {
             return std::make_unique<HierarchicalSolver>(HierarchicalOptions::from(bag));
           }};

@@ -49,8 +49,8 @@
 //   members' outstanding advances back (dB_r -= a_r, a_r = 0: still exact, but those elements'
 //   estimates drop until the energy arrives by shooting).
 // Paper: Wu & Wang 2002, "Interleaving Radiosity", §3 (pseudo-code lines 5-25) and Figs. 1-4.
-// Parameters: shots (>= 1, default 400), gathers (>= 0, default 400; 0 = sorted shooting that
-//   records dff), max_sessions (>= 1, default 32).
+// Parameters: shots (>= 1), gathers (>= 0; 0 = sorted shooting that records dff), max_sessions
+//   (>= 1); defaults: `radlab solvers` (InterleavedOptions).
 // Cost per step: one form-factor row (a shot or a gather). A shot whose shooter has unshot
 //   radiosity that some session already gathered adds one multiply-add per member of that
 //   session; a session change costs O(n log n) without rows (sorting by dff, a snapshot, a scan).

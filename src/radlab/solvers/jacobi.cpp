@@ -6,7 +6,7 @@
 //   sweep, old for the rest). From B = E with omega <= 1 the iterates rise monotonically, and
 //   after each sweep lie below Gauss–Seidel's (Stein–Rosenberg for non-negative matrices).
 // Paper: the textbook baseline (Cohen & Wallace 1993, ch. 5).
-// Parameters: omega (damping in (0,1], default 1).
+// Parameters: omega (damping in (0,1]); defaults: `radlab solvers` (JacobiOptions).
 // Cost per step: one form-factor row.
 // Left out: nothing; it is the slowest gathering method by design, kept as the baseline.
 #include "radlab/core/error.h"

@@ -25,9 +25,9 @@
 //   it uses each element's overshoot from its last shot (0 before its first), and finds the
 //   maximum inside the shot's pass (the shooter's new o_i is set before its shot).
 // Paper: Feda & Purgathofer 1992 and Gortler et al. 1994, as summarised by Wu & Wang 2002 §2.
-// Parameters: variant (ambient | regather, default regather), clamp (bool, default false),
-//   storage (double | float, default double: float rounds x and dB to float after every shot,
-//   the accumulation of a float implementation; ShootingCore::set_float_storage).
+// Parameters: variant (ambient | regather), clamp (bool), storage (double | float: float rounds
+//   x and dB to float after every shot, the accumulation of a float implementation;
+//   ShootingCore::set_float_storage); defaults: `radlab solvers` (OvershootingOptions).
 // Cost per step: one form-factor row; the ambient variant adds two passes over dB in memory (the
 //   unshot power, then the selection: its offset changes for every element at every shot), the
 //   regather variant a gather over the same row (two passes over the row, the second from cache).

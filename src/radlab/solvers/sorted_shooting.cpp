@@ -17,9 +17,9 @@
 //   The ambient never enters dB or the solution: solution() is the same with or without it.
 // Paper: Cohen et al. 1988 "Shooting and Sorting" and "... and Ambient" (Figs. 4, 5, 7);
 //   Gortler, Cohen & Slusallek 1994 for the Southwell reading and over-relaxation.
-// Parameters: ambient (bool, default false), omega (in (0,2), default 1), storage (double |
-//   float, default double: float rounds x and dB to float after every shot, to reproduce the
-//   accumulation of a float implementation; ShootingCore::set_float_storage).
+// Parameters: ambient (bool), omega (in (0,2)), storage (double | float: float rounds x and dB
+//   to float after every shot, to reproduce the accumulation of a float implementation;
+//   ShootingCore::set_float_storage); defaults: `radlab solvers` (SortedShootingOptions).
 // Cost per step: one form-factor row; the selection is fused into the row's pass. display()
 //   with ambient costs O(n) per call (the runner calls it at checkpoints only).
 // Left out: Cohen's incremental Delta-Ambient update of the displayed elements (display() forms

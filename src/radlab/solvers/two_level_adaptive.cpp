@@ -33,8 +33,8 @@
 //   levels deep enough that every block is one fine element it is sorted patch shooting on the fine
 //   system and reaches its reference (tested). The trace's floor is that discretisation error.
 // Paper: Cohen, Chen, Wallace & Greenberg 1988 §3.4, §4 (adaptive subdivision, ambient display).
-// Parameters: threshold (> 0, default 0.5), levels (initial splits per patch, default 1),
-//   ambient (display-only ambient term, as sorted-shooting; default false).
+// Parameters: threshold (> 0), levels (initial splits per patch), ambient (display-only ambient
+//   term, as sorted-shooting); defaults: `radlab solvers` (AdaptiveOptions).
 // Cost per step: one patch row (counted as one row and as many pair evaluations as there are
 //   blocks, the elements the paper projects onto the hemi-cube); a re-shoot after splits charges
 //   the children as pair evaluations but no row (the row is kept, as a stored item buffer is);
