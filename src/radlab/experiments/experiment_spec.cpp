@@ -107,25 +107,18 @@ class Reader {
   std::string path_;
 };
 
-}  // namespace
-
-ExperimentSpec read_experiment(const std::string& path) {
+toml::table parse_toml(const std::string& path) {
   if (!std::filesystem::exists(path)) throw InputError(path + ": no such file");
-  toml::table root;
   try {
-    root = toml::parse_file(path);
+    return toml::parse_file(path);
   } catch (const toml::parse_error& e) {
     throw InputError(path + ":" + std::to_string(e.source().begin.line) + ": " +
                      std::string(e.description()));
   }
-  Reader r(path);
-  r.only(root,
-         {"name", "description", "scenes", "subdiv", "element_size", "solvers", "seeds",
-          "form_factors", "patches", "budget", "checkpoints", "parameters", "images", "coverage"},
-         "the experiment");
-  ExperimentSpec spec;
-  spec.path = path;
-  spec.name = std::filesystem::path(path).stem().string();
+}
+
+void read_name(const Reader& r, const toml::table& root, ExperimentSpec& spec) {
+  spec.name = std::filesystem::path(spec.path).stem().string();
   if (auto n = root["name"]) {
     spec.name = r.string(*n.node(), "name");
     // The name becomes the default output folder out/NAME: no way out of out/.
@@ -135,12 +128,17 @@ ExperimentSpec read_experiment(const std::string& path) {
                             "'.', '-', '_', not '.' or '..', no path separators");
   }
   if (auto n = root["description"]) spec.description = r.string(*n.node(), "description");
+}
 
+void read_scenes(const Reader& r, const toml::table& root, ExperimentSpec& spec) {
   auto scenes = root["scenes"];
-  if (!scenes) throw InputError(path + ": 'scenes' is required (a list of scene specs)");
+  if (!scenes) throw InputError(spec.path + ": 'scenes' is required (a list of scene specs)");
   spec.scenes = r.distinct_list(*scenes.node(), "scenes",
                                 [&](const toml::node& n) { return r.string(n, "scene"); });
+}
 
+// subdiv or element_size: the mesh axis.
+void read_meshes(const Reader& r, const toml::table& root, ExperimentSpec& spec) {
   if (root["subdiv"] && root["element_size"])
     r.fail(*root["element_size"].node(), "give 'subdiv' or 'element_size', not both");
   if (auto n = root["element_size"]) {
@@ -162,10 +160,14 @@ ExperimentSpec read_experiment(const std::string& path) {
   } else {
     spec.meshes.push_back(MeshOptions{});
   }
+}
 
+// Returns true when the list said "all": narrowed to what runs on the problem by
+// narrow_all_solvers, once [patches] is read.
+bool read_solvers(const Reader& r, const toml::table& root, ExperimentSpec& spec) {
   auto solvers = root["solvers"];
-  bool all_solvers = false;  // "all": narrowed to what runs on the problem, once [patches] is read
-  if (!solvers) throw InputError(path + ": 'solvers' is required (names, or [\"all\"])");
+  bool all_solvers = false;
+  if (!solvers) throw InputError(spec.path + ": 'solvers' is required (names, or [\"all\"])");
   for (const std::string& name :
        r.list(*solvers.node(), [&](const toml::node& n) { return r.string(n, "solver"); })) {
     if (name == "all") {
@@ -185,14 +187,19 @@ ExperimentSpec read_experiment(const std::string& path) {
       if (spec.solvers[i].name == spec.solvers[j].name)
         r.fail(*solvers.node(), "solvers lists '" + spec.solvers[i].name +
                                     "' twice (runs would share a run id; 'all' includes it)");
+  return all_solvers;
+}
 
+void read_seeds(const Reader& r, const toml::table& root, ExperimentSpec& spec) {
   if (auto n = root["seeds"])
     spec.seeds = r.distinct_list(*n.node(), "seeds", [&](const toml::node& v) {
       const long long seed = r.integer(v, "seed");
       if (seed < 0) r.fail(v, "seeds must be >= 0, got " + std::to_string(seed));
       return seed;
     });
+}
 
+void read_form_factors(const Reader& r, const toml::table& root, ExperimentSpec& spec) {
   if (const toml::table* ff = root["form_factors"].as_table()) {
     for (auto&& [key, node] : *ff) {
       const std::string k(key.str());
@@ -217,7 +224,9 @@ ExperimentSpec read_experiment(const std::string& path) {
   } else if (root["form_factors"]) {
     r.fail(*root["form_factors"].node(), "'form_factors' must be a table");
   }
+}
 
+void read_patches(const Reader& r, const toml::table& root, ExperimentSpec& spec) {
   if (const toml::table* pt = root["patches"].as_table()) {
     r.only(*pt, {"from", "size", "rows"}, "[patches]");
     if (auto n = (*pt)["from"]) spec.patches.from = r.string(*n.node(), "patches.from");
@@ -231,18 +240,21 @@ ExperimentSpec read_experiment(const std::string& path) {
   } else if (root["patches"]) {
     r.fail(*root["patches"].node(), "'patches' must be a table");
   }
-  if (all_solvers) {
-    // "all" means every solver that runs on this problem's system (docs/experiments.md):
-    // adaptive-shooting needs patches (on one level it is sorted-shooting again); on two levels
-    // conjugate-gradient needs a reciprocal system (K is not: A_e K_ej != A_j K_je) and
-    // hierarchical solves its own one-level system.
-    const bool two = spec.patches.two_level();
-    std::erase_if(spec.solvers, [two](const SolverSweep& s) {
-      return two ? s.name == "conjugate-gradient" || s.name == "hierarchical"
-                 : s.name == "adaptive-shooting";
-    });
-  }
+}
 
+// "all" means every solver that runs on this problem's system (docs/experiments.md):
+// adaptive-shooting needs patches (on one level it is sorted-shooting again); on two levels
+// conjugate-gradient needs a reciprocal system (K is not: A_e K_ej != A_j K_je) and
+// hierarchical solves its own one-level system.
+void narrow_all_solvers(ExperimentSpec& spec) {
+  const bool two = spec.patches.two_level();
+  std::erase_if(spec.solvers, [two](const SolverSweep& s) {
+    return two ? s.name == "conjugate-gradient" || s.name == "hierarchical"
+               : s.name == "adaptive-shooting";
+  });
+}
+
+void read_budget(const Reader& r, const toml::table& root, ExperimentSpec& spec) {
   if (const toml::table* b = root["budget"].as_table()) {
     r.only(*b, {"steps", "rows", "seconds", "tol", "tol_of"}, "[budget]");
     // A budget that cannot mean anything is an error, never a silent default (or a hang: a NaN
@@ -275,7 +287,9 @@ ExperimentSpec read_experiment(const std::string& path) {
       spec.budget.tol_of_reflected = of == "reflected";
     }
   }
+}
 
+void read_checkpoints(const Reader& r, const toml::table& root, ExperimentSpec& spec) {
   if (const toml::table* c = root["checkpoints"].as_table()) {
     r.only(*c, {"every_step_until", "growth", "extra"}, "[checkpoints]");
     if (auto n = (*c)["every_step_until"])
@@ -288,7 +302,10 @@ ExperimentSpec read_experiment(const std::string& path) {
       spec.schedule.extra =
           r.list(*n.node(), [&](const toml::node& v) { return r.integer(v, "checkpoint"); });
   }
+}
 
+// [parameters.SOLVER]: each key a parameter axis of a solver the experiment lists.
+void read_parameters(const Reader& r, const toml::table& root, ExperimentSpec& spec) {
   if (const toml::table* p = root["parameters"].as_table()) {
     for (auto&& [key, node] : *p) {
       const std::string solver(key.str());
@@ -310,7 +327,9 @@ ExperimentSpec read_experiment(const std::string& path) {
       }
     }
   }
+}
 
+void read_images(const Reader& r, const toml::table& root, ExperimentSpec& spec) {
   if (const toml::table* im = root["images"].as_table()) {
     r.only(*im, {"steps", "width", "height", "error_maps", "shading"}, "[images]");
     if (auto n = (*im)["shading"]) {
@@ -337,19 +356,51 @@ ExperimentSpec read_experiment(const std::string& path) {
     }
     if (spec.images.width < 8 || spec.images.height < 8 || spec.images.width > 8192 ||
         spec.images.height > 8192)
-      throw InputError(path + ": [images] width and height must lie in [8, 8192]");
+      throw InputError(spec.path + ": [images] width and height must lie in [8, 8192]");
   }
+}
+
+void read_coverage(const Reader& r, const toml::table& root, ExperimentSpec& spec) {
   if (const toml::table* cov = root["coverage"].as_table()) {
     r.only(*cov, {"steps"}, "[coverage]");
     if (auto n = (*cov)["steps"])
       spec.coverage_steps =
           r.list(*n.node(), [&](const toml::node& v) { return r.integer(v, "coverage.steps"); });
   }
+}
 
-  // Scene files are relative to the experiment file's folder.
+// Scene files are relative to the experiment file's folder.
+void resolve_scene_paths(ExperimentSpec& spec) {
   for (std::string& scene : spec.scenes)
     if (!text::starts_with(scene, "builtin:") && std::filesystem::path(scene).is_relative())
-      scene = (std::filesystem::path(path).parent_path() / scene).lexically_normal().string();
+      scene = (std::filesystem::path(spec.path).parent_path() / scene).lexically_normal().string();
+}
+
+}  // namespace
+
+ExperimentSpec read_experiment(const std::string& path) {
+  const toml::table root = parse_toml(path);
+  const Reader r(path);
+  r.only(root,
+         {"name", "description", "scenes", "subdiv", "element_size", "solvers", "seeds",
+          "form_factors", "patches", "budget", "checkpoints", "parameters", "images", "coverage"},
+         "the experiment");
+  ExperimentSpec spec;
+  spec.path = path;
+  read_name(r, root, spec);
+  read_scenes(r, root, spec);
+  read_meshes(r, root, spec);
+  const bool all_solvers = read_solvers(r, root, spec);
+  read_seeds(r, root, spec);
+  read_form_factors(r, root, spec);
+  read_patches(r, root, spec);
+  if (all_solvers) narrow_all_solvers(spec);
+  read_budget(r, root, spec);
+  read_checkpoints(r, root, spec);
+  read_parameters(r, root, spec);
+  read_images(r, root, spec);
+  read_coverage(r, root, spec);
+  resolve_scene_paths(spec);
   return spec;
 }
 
