@@ -261,6 +261,210 @@ constexpr size_t kLongestSuffix =
 
 }  // namespace
 
+namespace {
+
+void make_folder(const std::filesystem::path& folder) {
+  std::error_code ec;
+  std::filesystem::create_directories(folder, ec);
+  if (ec) throw InputError(folder.string() + ": cannot create folder (" + ec.message() + ")");
+}
+
+void make_sweep_folders(const std::filesystem::path& out, const ExperimentSpec& spec) {
+  make_folder(out / "runs");
+  make_folder(partial_folder(out));
+  if (!spec.images.steps.empty()) make_folder(out / "images");
+  if (!spec.coverage_steps.empty()) make_folder(out / "coverage");
+}
+
+// The problem the runs in plan order share, prepared when the first of them comes; a problem that
+// cannot be prepared leaves the error its runs are recorded with.
+struct CurrentProblem {
+  std::unique_ptr<Problem> problem;
+  std::unique_ptr<ImageMaker> images;
+  size_t index = size_t(-1);
+  std::string error;
+  ExitCode code = ExitCode::kOk;
+  SpectralRadiusBounds spectral_radius{std::nan(""), std::nan("")};
+
+  void prepare(const ExperimentSpec& spec, const PlannedProblem& planned, size_t problem_index) {
+    problem.reset();
+    images.reset();
+    index = problem_index;
+    error.clear();
+    code = ExitCode::kOk;
+    spectral_radius = {std::nan(""), std::nan("")};
+    try {
+      problem = prepare_problem(planned.spec);
+      if (!spec.images.steps.empty()) images = std::make_unique<ImageMaker>(*problem, spec.images);
+    } catch (const Error& e) {
+      problem.reset();
+      images.reset();
+      error = e.what();
+      code = e.code();
+    } catch (const std::bad_alloc&) {
+      problem.reset();
+      images.reset();
+      error = planned.label + ": out of memory (try a coarser mesh)";
+      code = ExitCode::kNumerical;
+    }
+    if (!error.empty()) log::info("cannot prepare " + planned.label + ": " + error);
+  }
+};
+
+// A run done in an interrupted attempt of this very sweep is kept: its failure (if it failed)
+// and its problem's sweep.json entry are taken from its run.json. Returns false if it is not
+// done.
+bool keep_completed_run(const std::filesystem::path& out, const SweepPlan& plan,
+                        const PlannedRun& run, const std::string& stem, SweepReport& report,
+                        std::map<size_t, ProblemEntry>& problem_entries) {
+  std::optional<Json> done = completed_run(out, run, stem);
+  if (!done) return false;
+  ++report.runs_resumed;
+  const Json& result = (*done)["run"];
+  if (result.contains("exit_code"))
+    report.failures.push_back({run.index, run.run_id,
+                               ExitCode(result.value("exit_code", int(ExitCode::kNumerical))),
+                               result.value("error", std::string())});
+  if (!problem_entries.count(run.problem))
+    problem_entries[run.problem] =
+        problem_entry_from(run.problem, plan.problems[run.problem], *done);
+  log::info("[" + std::to_string(run.index + 1) + "/" + std::to_string(plan.runs.size()) + "] " +
+            run.run_id + ": already complete (runs/" + stem + ".run.json), skipped");
+  return true;
+}
+
+// One run: its trace and summary rows into the partial folder, its run.json, radiosities, images
+// and coverage into the sweep folder. A failure is recorded (report.failures, a failed summary
+// row, a run.json saying why) and the sweep goes on.
+void run_one(const ExperimentSpec& spec, const SweepPlan& plan, const PlannedRun& run,
+             const std::string& stem, const std::filesystem::path& out, CurrentProblem& current,
+             SweepReport& report) {
+  std::vector<std::string> assignments;
+  for (const auto& [k, v] : run.parameters) assignments.push_back(k + "=" + v);
+  SummaryInputs inputs;
+  inputs.run_index = run.index;
+  inputs.labels = RunLabels{run.run_id, plan.problems[run.problem].spec.scene, run.solver,
+                            text::join(assignments, ",")};
+  inputs.gathering = is_gathering(run.solver);
+  inputs.spectral_radius = inputs.spectral_radius_lower = std::nan("");
+  if (current.problem) {
+    inputs.elements = current.problem->mesh.size();
+    inputs.channels = current.problem->system->channels();
+  }
+
+  // This run's rows wait in the partial folder (short names, by index) until the sweep ends.
+  // The summary row is written last: a run whose summary rows are in place is complete.
+  TraceWriter trace(partial_file(out, run.index, "trace").string());
+  const std::string summary_path = partial_file(out, run.index, "summary").string();
+
+  // Everything from here may fail; a failure is recorded and the sweep goes on. Its run.json
+  // is written when its name can be (a run id too long for a file name has none).
+  bool trace_closed = false;
+  auto record_failure = [&](ExitCode code, const std::string& message,
+                            const std::map<std::string, std::string>* options_given) {
+    log::info(run.run_id + ": failed: " + message);
+    report.failures.push_back({run.index, run.run_id, code, message});
+    if (!trace_closed) trace.close();
+    try {
+      JsonWriter json;
+      begin_run_json(json, spec, run, current.problem.get(), options_given);
+      json.key("run").begin_object();
+      json.field("budget", spec.budget.describe());
+      json.field("stop_reason", failure_stop_reason(code));
+      json.field("error", message);
+      json.field("exit_code", int(code));
+      json.end_object();
+      json.end_object();
+      json.save((out / "runs" / (stem + ".run.json")).string());
+    } catch (const InputError& e) {
+      log::warning(run.run_id + ": " + e.what());
+    }
+    CsvWriter summary(summary_path, summary_columns());
+    write_failed_summary_row(summary, inputs, failure_stop_reason(code), message);
+    summary.close();
+  };
+  if (stem.size() + kLongestSuffix > kMaxFileName) {
+    record_failure(ExitCode::kInvalidInput,
+                   "run id too long for a file name (" + std::to_string(stem.size()) +
+                       " bytes; the file system allows " + std::to_string(kMaxFileName) +
+                       " with the longest suffix radlab adds)",
+                   nullptr);
+    return;
+  }
+  if (!current.problem) {
+    record_failure(current.code, current.error, nullptr);
+    return;
+  }
+  const Problem& problem = *current.problem;
+
+  std::optional<ParamBag> bag;
+  std::unique_ptr<Solver> solver;
+  RunResult result;
+  try {
+    bag.emplace(ParamBag::from_assignments(assignments, "solver '" + run.solver + "'"));
+    solver = make_solver(run.solver, *bag);
+    inputs.labels.params = bag->canonical();
+    if (inputs.gathering && problem.has_matrix()) {
+      if (std::isnan(current.spectral_radius.upper))
+        current.spectral_radius = worst_spectral_radius(problem);
+      inputs.spectral_radius = current.spectral_radius.upper;
+      inputs.spectral_radius_lower = current.spectral_radius.lower;
+    }
+    const CheckpointSchedule schedule = run_schedule(spec, inputs.gathering, problem.mesh.size());
+    auto wanted = [](const std::vector<long long>& steps, long long step) {
+      return std::find(steps.begin(), steps.end(), step) != steps.end();
+    };
+    CheckpointHook hook = [&, stem](long long step, const Solver& s) {
+      if (current.images && wanted(spec.images.steps, step))
+        current.images->save(s, step, (out / "images" / stem).string(),
+                             run_provenance(run.run_id, problem.spec.scene, run.solver, step,
+                                            problem.system->rows_used()));
+      if (wanted(spec.coverage_steps, step)) {
+        char name[64];
+        std::snprintf(name, sizeof name, "_step%06lld.csv", step);
+        write_coverage_csv((out / "coverage" / (stem + name)).string(), s, problem, step);
+      }
+    };
+    result = run_solver(*solver, problem, spec.budget, schedule, inputs.labels, &trace, hook);
+    write_radiosity_csv((out / "runs" / (stem + ".radiosity.csv")).string(), problem.mesh,
+                        solver->solution());
+    trace_closed = true;  // a failure to close is a failure of the run, not closed again
+    trace.close();
+    JsonWriter json;
+    begin_run_json(json, spec, run, current.problem.get(), &bag->values());
+    write_run_result(json, spec.budget, result);
+    write_solver_statistics(json, *solver, current.problem.get());
+    json.end_object();
+    json.save((out / "runs" / (stem + ".run.json")).string());
+  } catch (const Error& e) {
+    record_failure(e.code(), e.what(), bag ? &bag->values() : nullptr);
+    return;
+  } catch (const std::bad_alloc&) {
+    record_failure(ExitCode::kNumerical, run.run_id + ": out of memory",
+                   bag ? &bag->values() : nullptr);
+    return;
+  }
+  CsvWriter summary(summary_path, summary_columns());
+  write_summary_row(summary, inputs, result);
+  summary.close();
+}
+
+// Every run is done: trace.csv and summary.csv from the runs' rows in run order.
+void write_sweep_tables(const std::filesystem::path& out, const std::vector<size_t>& shard_runs) {
+  OutputFile trace_csv((out / "trace.csv").string());
+  OutputFile summary_csv((out / "summary.csv").string());
+  trace_csv.write(text::join(trace_columns(), ",") + "\n");
+  summary_csv.write(text::join(summary_columns(), ",") + "\n");
+  for (size_t index : shard_runs) {
+    append_rows(trace_csv, partial_file(out, index, "trace"));
+    append_rows(summary_csv, partial_file(out, index, "summary"));
+  }
+  trace_csv.commit();
+  summary_csv.commit();
+}
+
+}  // namespace
+
 SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
   if (options.shard_count < 1 || options.shard_index < 0 ||
       options.shard_index >= options.shard_count)
@@ -277,15 +481,7 @@ SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
   std::string note;
   const bool resume = prepare_sweep_folder(out, identity, options.overwrite, note);
   if (!note.empty()) log::info(note);
-  auto make_folder = [&](const fs::path& folder) {
-    std::error_code ec;
-    fs::create_directories(folder, ec);
-    if (ec) throw InputError(folder.string() + ": cannot create folder (" + ec.message() + ")");
-  };
-  make_folder(out / "runs");
-  make_folder(partial_folder(out));
-  if (!spec.images.steps.empty()) make_folder(out / "images");
-  if (!spec.coverage_steps.empty()) make_folder(out / "coverage");
+  make_sweep_folders(out, spec);
 
   SweepReport report;
   report.runs_total = plan.runs.size();
@@ -294,190 +490,28 @@ SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
   write_sweep_json(out, spec, options, identity, plan.runs.size(), "running", run_ids,
                    report.failures, problem_entries);
 
-  std::unique_ptr<Problem> problem;
-  size_t problem_index = size_t(-1);
-  std::string problem_error;  // why the current problem could not be prepared
-  ExitCode problem_code = ExitCode::kOk;
-  SpectralRadiusBounds spectral_radius{std::nan(""), std::nan("")};
-  std::unique_ptr<ImageMaker> images;
+  CurrentProblem current;
   std::vector<size_t> shard_runs;  // indices of this shard's runs, in order
-
   for (const PlannedRun& run : plan.runs) {
     if (int(run.index % size_t(options.shard_count)) != options.shard_index) continue;
     const std::string stem = file_stem(run.run_id);
     shard_runs.push_back(run.index);
     run_ids.push_back(run.run_id);
     ++report.runs_done;
-
-    // Done in an interrupted attempt of this very sweep: keep it.
-    if (resume)
-      if (std::optional<Json> done = completed_run(out, run, stem)) {
-        ++report.runs_resumed;
-        const Json& result = (*done)["run"];
-        if (result.contains("exit_code"))
-          report.failures.push_back({run.index, run.run_id,
-                                     ExitCode(result.value("exit_code", int(ExitCode::kNumerical))),
-                                     result.value("error", std::string())});
-        if (!problem_entries.count(run.problem))
-          problem_entries[run.problem] =
-              problem_entry_from(run.problem, plan.problems[run.problem], *done);
-        log::info("[" + std::to_string(run.index + 1) + "/" + std::to_string(plan.runs.size()) +
-                  "] " + run.run_id + ": already complete (runs/" + stem + ".run.json), skipped");
-        continue;
-      }
-
-    if (run.problem != problem_index) {
-      problem.reset();
-      images.reset();
-      problem_index = run.problem;
-      problem_error.clear();
-      problem_code = ExitCode::kOk;
-      spectral_radius = {std::nan(""), std::nan("")};
+    if (resume && keep_completed_run(out, plan, run, stem, report, problem_entries)) continue;
+    if (run.problem != current.index) {
       const PlannedProblem& planned = plan.problems[run.problem];
-      try {
-        problem = prepare_problem(planned.spec);
-        if (!spec.images.steps.empty())
-          images = std::make_unique<ImageMaker>(*problem, spec.images);
-      } catch (const Error& e) {
-        problem.reset();
-        images.reset();
-        problem_error = e.what();
-        problem_code = e.code();
-      } catch (const std::bad_alloc&) {
-        problem.reset();
-        images.reset();
-        problem_error = planned.label + ": out of memory (try a coarser mesh)";
-        problem_code = ExitCode::kNumerical;
-      }
-      if (!problem_error.empty())
-        log::info("cannot prepare " + planned.label + ": " + problem_error);
+      current.prepare(spec, planned, run.problem);
       problem_entries[run.problem] =
-          problem_entry(run.problem, planned, problem.get(), problem_error);
+          problem_entry(run.problem, planned, current.problem.get(), current.error);
     }
     log::info("[" + std::to_string(run.index + 1) + "/" + std::to_string(plan.runs.size()) + "] " +
               run.run_id);
-
-    std::vector<std::string> assignments;
-    for (const auto& [k, v] : run.parameters) assignments.push_back(k + "=" + v);
-    SummaryInputs inputs;
-    inputs.run_index = run.index;
-    inputs.labels = RunLabels{run.run_id, plan.problems[run.problem].spec.scene, run.solver,
-                              text::join(assignments, ",")};
-    inputs.gathering = is_gathering(run.solver);
-    inputs.spectral_radius = inputs.spectral_radius_lower = std::nan("");
-    if (problem) {
-      inputs.elements = problem->mesh.size();
-      inputs.channels = problem->system->channels();
-    }
-
-    // This run's rows wait in the partial folder (short names, by index) until the sweep ends.
-    // The summary row is written last: a run whose summary rows are in place is complete.
-    TraceWriter trace(partial_file(out, run.index, "trace").string());
-    const std::string summary_path = partial_file(out, run.index, "summary").string();
-
-    // Everything from here may fail; a failure is recorded and the sweep goes on. Its run.json
-    // is written when its name can be (a run id too long for a file name has none).
-    bool trace_closed = false;
-    auto record_failure = [&](ExitCode code, const std::string& message,
-                              const std::map<std::string, std::string>* options_given) {
-      log::info(run.run_id + ": failed: " + message);
-      report.failures.push_back({run.index, run.run_id, code, message});
-      if (!trace_closed) trace.close();
-      try {
-        JsonWriter json;
-        begin_run_json(json, spec, run, problem.get(), options_given);
-        json.key("run").begin_object();
-        json.field("budget", spec.budget.describe());
-        json.field("stop_reason", failure_stop_reason(code));
-        json.field("error", message);
-        json.field("exit_code", int(code));
-        json.end_object();
-        json.end_object();
-        json.save((out / "runs" / (stem + ".run.json")).string());
-      } catch (const InputError& e) {
-        log::warning(run.run_id + ": " + e.what());
-      }
-      CsvWriter summary(summary_path, summary_columns());
-      write_failed_summary_row(summary, inputs, failure_stop_reason(code), message);
-      summary.close();
-    };
-    if (stem.size() + kLongestSuffix > kMaxFileName) {
-      record_failure(ExitCode::kInvalidInput,
-                     "run id too long for a file name (" + std::to_string(stem.size()) +
-                         " bytes; the file system allows " + std::to_string(kMaxFileName) +
-                         " with the longest suffix radlab adds)",
-                     nullptr);
-      continue;
-    }
-    if (!problem) {
-      record_failure(problem_code, problem_error, nullptr);
-      continue;
-    }
-
-    std::optional<ParamBag> bag;
-    std::unique_ptr<Solver> solver;
-    RunResult result;
-    try {
-      bag.emplace(ParamBag::from_assignments(assignments, "solver '" + run.solver + "'"));
-      solver = make_solver(run.solver, *bag);
-      inputs.labels.params = bag->canonical();
-      if (inputs.gathering && problem->has_matrix()) {
-        if (std::isnan(spectral_radius.upper)) spectral_radius = worst_spectral_radius(*problem);
-        inputs.spectral_radius = spectral_radius.upper;
-        inputs.spectral_radius_lower = spectral_radius.lower;
-      }
-      const CheckpointSchedule schedule =
-          run_schedule(spec, inputs.gathering, problem->mesh.size());
-      auto wanted = [](const std::vector<long long>& steps, long long step) {
-        return std::find(steps.begin(), steps.end(), step) != steps.end();
-      };
-      CheckpointHook hook = [&, stem](long long step, const Solver& s) {
-        if (images && wanted(spec.images.steps, step))
-          images->save(s, step, (out / "images" / stem).string(),
-                       run_provenance(run.run_id, problem->spec.scene, run.solver, step,
-                                      problem->system->rows_used()));
-        if (wanted(spec.coverage_steps, step)) {
-          char name[64];
-          std::snprintf(name, sizeof name, "_step%06lld.csv", step);
-          write_coverage_csv((out / "coverage" / (stem + name)).string(), s, *problem, step);
-        }
-      };
-      result = run_solver(*solver, *problem, spec.budget, schedule, inputs.labels, &trace, hook);
-      write_radiosity_csv((out / "runs" / (stem + ".radiosity.csv")).string(), problem->mesh,
-                          solver->solution());
-      trace_closed = true;  // a failure to close is a failure of the run, not closed again
-      trace.close();
-      JsonWriter json;
-      begin_run_json(json, spec, run, problem.get(), &bag->values());
-      write_run_result(json, spec.budget, result);
-      write_solver_statistics(json, *solver, problem.get());
-      json.end_object();
-      json.save((out / "runs" / (stem + ".run.json")).string());
-    } catch (const Error& e) {
-      record_failure(e.code(), e.what(), bag ? &bag->values() : nullptr);
-      continue;
-    } catch (const std::bad_alloc&) {
-      record_failure(ExitCode::kNumerical, run.run_id + ": out of memory",
-                     bag ? &bag->values() : nullptr);
-      continue;
-    }
-    CsvWriter summary(summary_path, summary_columns());
-    write_summary_row(summary, inputs, result);
-    summary.close();
+    run_one(spec, plan, run, stem, out, current, report);
   }
 
-  // Every run is done: trace.csv and summary.csv from the runs' rows in run order, then
-  // sweep.json says "complete", then the partial rows go.
-  OutputFile trace_csv((out / "trace.csv").string());
-  OutputFile summary_csv((out / "summary.csv").string());
-  trace_csv.write(text::join(trace_columns(), ",") + "\n");
-  summary_csv.write(text::join(summary_columns(), ",") + "\n");
-  for (size_t index : shard_runs) {
-    append_rows(trace_csv, partial_file(out, index, "trace"));
-    append_rows(summary_csv, partial_file(out, index, "summary"));
-  }
-  trace_csv.commit();
-  summary_csv.commit();
+  // trace.csv and summary.csv, then sweep.json says "complete", then the partial rows go.
+  write_sweep_tables(out, shard_runs);
   write_sweep_json(out, spec, options, identity, plan.runs.size(), "complete", run_ids,
                    report.failures, problem_entries);
   std::error_code ignored;
