@@ -24,6 +24,7 @@
 #include "radlab/core/text.h"
 #include "radlab/scene/cie_colour.h"
 #include "radlab/scene/geometry.h"
+#include "radlab/scene/tessellate.h"
 
 namespace radlab {
 namespace {
@@ -131,17 +132,6 @@ glm::dmat4 power(glm::dmat4 m, int k) {
     m = m * m;
   }
   return out;
-}
-
-// Orthonormal u, v with u x v = w (w unit).
-void make_axes(const Vec3& w, Vec3& u, Vec3& v) {
-  int k = 0;
-  for (int i = 1; i < 3; ++i)
-    if (std::abs(w[i]) < std::abs(w[k])) k = i;
-  Vec3 a(0.0);
-  a[k] = 1.0;
-  u = glm::normalize(glm::cross(a, w));
-  v = glm::cross(w, u);
 }
 
 class Reader {
@@ -762,77 +752,23 @@ class Reader {
         Polygon{std::move(polygon), material, file_->path + ":" + std::to_string(where_->line)});
   }
 
-  void emit_curved(std::vector<Vec3> polygon, bool reversed) {
-    if (reversed) std::reverse(polygon.begin(), polygon.end());
-    ++stats_.tessellated_polygons;
-    emit(std::move(polygon));
-  }
-
-  // Point at angle step k around the circle of radius r about `centre` in the plane (u, v).
-  Vec3 around(const Vec3& centre, const Vec3& u, const Vec3& v, double r, int k) const {
-    const double theta = 2.0 * std::numbers::pi * double(k % segments_) / double(segments_);
-    return centre + r * (std::cos(theta) * u + std::sin(theta) * v);
-  }
-
-  // Truncated cone (a cylinder when r1 == r2) from p1 to p2, open ends, outward for positive
-  // radii. Quads [P1(k), P1(k+1), P2(k+1), P2(k)] face away from the axis; a zero radius makes
-  // triangles.
-  void cone(const Vec3& p1, double r1, const Vec3& p2, double r2) {
-    const Vec3 axis = p2 - p1;
-    if (!(glm::length(axis) > 0)) fail("end points coincide (use 'ring' for a flat disc)");
-    const bool inward = r1 < 0 || r2 < 0;
-    const Vec3 w = glm::normalize(axis);
-    Vec3 u, v;
-    make_axes(w, u, v);
-    const double a1 = std::abs(r1), a2 = std::abs(r2);
-    for (int k = 0; k < segments_; ++k) {
-      std::vector<Vec3> q;
-      if (a1 > 0) {
-        q.push_back(around(p1, u, v, a1, k));
-        q.push_back(around(p1, u, v, a1, k + 1));
-      } else {
-        q.push_back(p1);
-      }
-      if (a2 > 0) {
-        q.push_back(around(p2, u, v, a2, k + 1));
-        q.push_back(around(p2, u, v, a2, k));
-      } else {
-        q.push_back(p2);
-      }
-      emit_curved(std::move(q), inward);
+  // A tessellated primitive (src/radlab/scene/tessellate.h), counted and added.
+  void emit_curved(tessellate::Polygons polygons) {
+    for (std::vector<Vec3>& polygon : polygons) {
+      ++stats_.tessellated_polygons;
+      emit(std::move(polygon));
     }
   }
 
-  // Sphere: 2 * quarter_circle_divisions latitude bands from the +z pole, triangles at the poles.
+  void cone(const Vec3& p1, double r1, const Vec3& p2, double r2) {
+    if (!(glm::length(p2 - p1) > 0)) fail("end points coincide (use 'ring' for a flat disc)");
+    emit_curved(tessellate::cone(p1, r1, p2, r2, segments_));
+  }
+
   void sphere(const Vec3& centre, double radius) {
     if (radius == 0) fail("'sph': the radius must not be zero");
     ++stats_.spheres;
-    const bool inward = radius < 0;
-    const double r = std::abs(radius);
-    const Vec3 u(1, 0, 0), v(0, 1, 0), w(0, 0, 1);
-    const int bands = segments_ / 2;
-    auto ring_at = [&](int j, int k) {
-      const double phi = std::numbers::pi * double(j) / double(bands);
-      return around(centre + r * std::cos(phi) * w, u, v, r * std::sin(phi), k);
-    };
-    for (int j = 0; j < bands; ++j) {  // band between latitude j (upper) and j + 1 (lower)
-      for (int k = 0; k < segments_; ++k) {
-        std::vector<Vec3> q;
-        if (j + 1 == bands) {
-          q.push_back(centre - r * w);
-        } else {
-          q.push_back(ring_at(j + 1, k));
-          q.push_back(ring_at(j + 1, k + 1));
-        }
-        if (j == 0) {
-          q.push_back(centre + r * w);
-        } else {
-          q.push_back(ring_at(j, k + 1));
-          q.push_back(ring_at(j, k));
-        }
-        emit_curved(std::move(q), inward);
-      }
-    }
+    emit_curved(tessellate::sphere(centre, radius, segments_));
   }
 
   Vec3 unit_normal_of(const VertexState& c, const std::string& what) {
@@ -841,66 +777,28 @@ class Reader {
     return c.n;
   }
 
-  // Flat ring (a disc when rmin = 0) facing along the centre's normal.
   void ring(const VertexState& centre, double rmin, double rmax) {
     const Vec3 w = unit_normal_of(centre, "ring");
     if (!(rmin >= 0 && rmax > rmin)) fail("'ring': need 0 <= rmin < rmax");
     ++stats_.rings;
-    Vec3 u, v;
-    make_axes(w, u, v);
-    for (int k = 0; k < segments_; ++k) {
-      std::vector<Vec3> q;
-      if (rmin > 0) {
-        q.push_back(around(centre.p, u, v, rmin, k));
-      } else {
-        q.push_back(centre.p);
-      }
-      q.push_back(around(centre.p, u, v, rmax, k));
-      q.push_back(around(centre.p, u, v, rmax, k + 1));
-      if (rmin > 0) q.push_back(around(centre.p, u, v, rmin, k + 1));
-      emit_curved(std::move(q), false);
-    }
+    emit_curved(tessellate::ring(centre.p, w, rmin, rmax, segments_));
   }
 
-  // Torus in the plane normal to the centre's normal: tube centre radius (rmin + rmax) / 2, tube
-  // radius (rmax - rmin) / 2; segments x segments quads, outward unless the radii are negative.
   void torus(const VertexState& centre, double rmin, double rmax) {
     const Vec3 w = unit_normal_of(centre, "torus");
     const bool inward = rmax < 0;
     if (inward ? !(rmin <= 0 && rmax < rmin) : !(rmin >= 0 && rmax > rmin))
       fail("'torus': need 0 <= rmin < rmax (or both negative, |rmin| < |rmax|, for inward)");
     ++stats_.tori;
-    const double big = 0.5 * std::abs(rmin + rmax), tube = 0.5 * std::abs(rmax - rmin);
-    Vec3 u, v;
-    make_axes(w, u, v);
-    auto point = [&](int k, int j) {
-      const double theta = 2.0 * std::numbers::pi * double(k % segments_) / double(segments_);
-      const double psi = 2.0 * std::numbers::pi * double(j % segments_) / double(segments_);
-      const Vec3 d = std::cos(theta) * u + std::sin(theta) * v;
-      return centre.p + (big + tube * std::cos(psi)) * d + tube * std::sin(psi) * w;
-    };
-    for (int k = 0; k < segments_; ++k)
-      for (int j = 0; j < segments_; ++j)
-        emit_curved({point(k, j), point(k + 1, j), point(k + 1, j + 1), point(k, j + 1)}, inward);
+    emit_curved(tessellate::torus(centre.p, w, rmin, rmax, segments_));
   }
 
-  // Closed right prism: the base as given (its winding normal n), the far end at -n * length
-  // reversed, and one quad per edge; all outward for a positive length, inward for a negative.
   void prism(const std::vector<Vec3>& base, double length) {
     if (length == 0) fail("'prism': the length must not be zero");
-    const Vec3 n = geometry::unit_normal(base);
-    if (!(glm::length(n) > 0)) fail("'prism': the base polygon has no area");
+    if (!(glm::length(geometry::unit_normal(base)) > 0))
+      fail("'prism': the base polygon has no area");
     ++stats_.prisms;
-    const Vec3 d = -length * n;
-    emit_curved(base, false);
-    std::vector<Vec3> top(base.rbegin(), base.rend());
-    for (Vec3& p : top) p += d;
-    emit_curved(std::move(top), false);
-    for (size_t i = 0; i < base.size(); ++i) {
-      const Vec3& a = base[i];
-      const Vec3& b = base[(i + 1) % base.size()];
-      emit_curved({a, a + d, b + d, b}, false);
-    }
+    emit_curved(tessellate::prism(base, length));
   }
 
   // ---- messages ---------------------------------------------------------------------------
