@@ -120,7 +120,8 @@ void BM_SymmetricBuildRoom(benchmark::State& state) {
     benchmark::DoNotOptimize(build_matrix(clip, boxed.mesh.size(), Precision::kDouble, a));
     one_way += process_seconds() - t;
     t = process_seconds();
-    benchmark::DoNotOptimize(build_matrix_symmetric(clip, boxed.mesh, Precision::kDouble, b));
+    benchmark::DoNotOptimize(
+        build_matrix_symmetric(clip, boxed.mesh, Precision::kDouble, Layout::kDense, b));
     symmetric += process_seconds() - t;
   }
   const double runs = double(state.iterations());

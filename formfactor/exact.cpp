@@ -115,6 +115,11 @@ std::vector<std::string> ExactFormFactors::left_out() const {
 }
 
 double ExactFormFactors::pair(size_t i, size_t j, RowCost& cost) const {
+  if (integrates_from(mesh_, i, j)) return pair_integral(i, j, cost);
+  return reciprocal(pair_integral(j, i, cost), mesh_.area[j], mesh_.area[i]);
+}
+
+double ExactFormFactors::pair_integral(size_t i, size_t j, RowCost& cost) const {
   if (i == j) return 0.0;
   if (!pair_faces(mesh_, i, j, plane_epsilon_)) {
     ++cost.pairs_culled;

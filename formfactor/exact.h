@@ -68,7 +68,21 @@ class ExactFormFactors final : public FormFactorMethod {
   bool row_part(size_t i, size_t lo, size_t hi, std::span<double> out,
                 RowCost& cost) const override;
 
+  // F_ij, integrated over the smaller element of the pair (the lower index on equal areas) and
+  // turned around by reciprocity on the other side: pair(i, j) A_i == pair(j, i) A_j to
+  // rounding, and each is within `tolerance` relative of the exact value. row(), row_part() and
+  // build_matrix_symmetric() all give these bits (the symmetric build integrates each pair once).
   double pair(size_t i, size_t j, RowCost& cost) const;
+  // F_ij integrated over element i whatever the areas (the one-way integral pair() orients).
+  double pair_integral(size_t i, size_t j, RowCost& cost) const;
+  // Whether pair(i, j) integrates over i (true) or over j and scales by A_j / A_i (false).
+  static bool integrates_from(const Mesh& mesh, size_t i, size_t j) {
+    return mesh.area[i] < mesh.area[j] || (mesh.area[i] == mesh.area[j] && i < j);
+  }
+  // The entry of the element not integrated over: F_ba = F_ab A_a / A_b.
+  static double reciprocal(double f_ab, double area_a, double area_b) {
+    return f_ab * (area_a / area_b);
+  }
 
  private:
   const Scene& scene_;
