@@ -36,7 +36,9 @@
 
 #include <memory>
 
+#include "formfactor/double_area.h"
 #include "formfactor/form_factor_method.h"
+#include "formfactor/polygon_integral.h"
 #include "formfactor/shaft.h"
 #include "formfactor/visibility.h"
 #include "formfactor/visible_polygon.h"
@@ -85,6 +87,8 @@ class ExactFormFactors final : public FormFactorMethod {
   }
 
  private:
+  // The highest fixed Gauss order tried on separated unoccluded pairs (then adaptive).
+  static constexpr int kMaxFixedOrder = 16;
   const Scene& scene_;
   const Mesh& mesh_;
   ExactOptions options_;
@@ -93,6 +97,11 @@ class ExactFormFactors final : public FormFactorMethod {
   std::unique_ptr<Visibility> visibility_;  // rays mode only
   std::unique_ptr<ShaftCuller> shafts_;     // clip mode (unless nothing can occlude)
   std::vector<Vec3> occluder_normal_;       // clip mode: unit normal of every input polygon
+  std::vector<double> radius_;              // each element's largest centroid-corner distance
+  FixedOrderRule order_rule_;               // Bernstein-bound Gauss order for separated pairs
+  ElementRules element_rules_;              // Gauss rules of every element (double-area pairs)
+  double unoccluded(size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to,
+                    double kept, RowCost& cost) const;
   double clipped_pair(size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to,
                       std::span<const Occluder> occluders, double floor, RowCost& cost) const;
 };
