@@ -2,7 +2,7 @@
 // matrix build (experiments/problem.cpp): one integration per unordered pair of `exact`, the same
 // bits as the row-by-row build in either layout and for any thread count, every entry within the
 // method's tolerance of the one-way integral over its own row's element.
-#include "formfactor/symmetric_build.h"
+#include "radlab/formfactor/symmetric_build.h"
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
@@ -10,11 +10,11 @@
 #include <algorithm>
 #include <vector>
 
-#include "experiments/problem.h"
-#include "formfactor/exact.h"
-#include "formfactor/matrix.h"
-#include "formfactor/parallel_row.h"
-#include "scene/mesh.h"
+#include "radlab/experiments/problem.h"
+#include "radlab/formfactor/exact.h"
+#include "radlab/formfactor/matrix.h"
+#include "radlab/formfactor/parallel_row.h"
+#include "radlab/scene/mesh.h"
 #include "tests/test_support.h"
 
 namespace radlab {

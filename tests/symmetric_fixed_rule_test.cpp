@@ -10,12 +10,12 @@
 #include <numbers>
 #include <vector>
 
-#include "formfactor/double_area.h"
-#include "formfactor/exact.h"
-#include "formfactor/polygon_integral.h"
-#include "formfactor/raycast.h"
-#include "formfactor/visibility.h"
-#include "scene/mesh.h"
+#include "radlab/formfactor/double_area.h"
+#include "radlab/formfactor/exact.h"
+#include "radlab/formfactor/polygon_integral.h"
+#include "radlab/formfactor/raycast.h"
+#include "radlab/formfactor/visibility.h"
+#include "radlab/scene/mesh.h"
 #include "tests/test_support.h"
 
 namespace radlab {

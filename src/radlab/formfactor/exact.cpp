@@ -1,0 +1,288 @@
+#include "radlab/formfactor/exact.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <glm/geometric.hpp>
+
+#include "radlab/core/error.h"
+#include "radlab/core/text.h"
+#include "radlab/formfactor/occlusion.h"
+#include "radlab/formfactor/polygon_integral.h"
+#include "radlab/formfactor/raycast.h"
+#include "radlab/formfactor/shaft.h"
+#include "radlab/formfactor/visible_polygon.h"
+#include "radlab/scene/geometry.h"
+
+namespace radlab {
+
+ExactOptions ExactOptions::from(ParamBag& bag) {
+  ExactOptions o;
+  o.tolerance = bag.get_double("tolerance", o.tolerance);
+  o.max_depth = int(bag.get_int("max_depth", o.max_depth, kIntMin, kIntMax));
+  const std::string visibility = bag.get_choice("visibility", "refuse", {"refuse", "rays", "clip"});
+  o.visibility_rays = visibility == "rays";
+  o.visibility_clip = visibility == "clip";
+  if (o.visibility_rays) {
+    o.rays = int(bag.get_int("rays", o.rays, kIntMin, kIntMax));
+    o.seed = uint64_t(bag.get_int("seed", 0, 0, kInt64Max));
+  } else if (bag.has("rays") || bag.has("seed")) {
+    throw UsageError(
+        "exact: 'rays' and 'seed' apply only with visibility=rays (visibility=clip "
+        "samples nothing)");
+  }
+  o.validate();
+  return o;
+}
+
+void ExactOptions::validate() const {
+  if (!(tolerance >= 1e-15 && tolerance < 1.0))
+    throw UsageError("exact: tolerance must lie in [1e-15,1), got " +
+                     text::format_double(tolerance));
+  if (max_depth < 1 || max_depth > 24)
+    throw UsageError("exact: max_depth must lie in [1,24], got " + std::to_string(max_depth));
+  if (visibility_rays && visibility_clip)
+    throw UsageError("exact: visibility is either rays or clip, not both");
+  if (rays < 1 || rays > 4096)
+    throw UsageError("exact: rays must lie in [1,4096], got " + std::to_string(rays));
+}
+
+std::string ExactOptions::canonical() const {
+  char buffer[200];
+  if (visibility_rays)
+    std::snprintf(buffer, sizeof buffer,
+                  "max_depth=%d,rays=%d,seed=%llu,tolerance=%.6g,visibility=rays", max_depth, rays,
+                  static_cast<unsigned long long>(seed), tolerance);
+  else
+    std::snprintf(buffer, sizeof buffer, "max_depth=%d,tolerance=%.6g,visibility=%s", max_depth,
+                  tolerance, visibility_clip ? "clip" : "refuse");
+  return buffer;
+}
+
+ExactFormFactors::ExactFormFactors(const Scene& scene, const Mesh& mesh, ExactOptions options)
+    : scene_(scene),
+      mesh_(mesh),
+      options_((options.validate(), options)),
+      order_rule_(options_.tolerance, kMaxFixedOrder),
+      element_rules_(mesh) {
+  plane_epsilon_ = plane_epsilon(mesh);
+  radius_.resize(mesh.size());
+  for (size_t e = 0; e < mesh.size(); ++e) {
+    double r = 0.0;
+    for (uint32_t v : mesh.element_vertices(e))
+      r = std::max(r, glm::distance(mesh.vertices[v], mesh.centroid[e]));
+    radius_[e] = r;
+  }
+  if (is_convex_enclosure(scene)) {
+    nothing_occludes_ = true;
+    return;
+  }
+  if (options_.visibility_rays) {
+    visibility_ = std::make_unique<Visibility>(scene, mesh, options_.rays, options_.seed, true);
+    return;
+  }
+  if (options_.visibility_clip) {
+    shafts_ = std::make_unique<ShaftCuller>(scene, mesh, plane_epsilon_);
+    occluder_normal_.reserve(scene.polygons.size());
+    for (const Polygon& p : scene.polygons)
+      occluder_normal_.push_back(geometry::unit_normal(p.vertices));
+    return;
+  }
+  // Every facing pair must have an empty shaft; the first that does not is named.
+  ShaftCuller shafts(scene, mesh, plane_epsilon_);
+  for (size_t i = 0; i < mesh.size(); ++i)
+    for (size_t j = i + 1; j < mesh.size(); ++j) {
+      if (!pair_faces(mesh, i, j, plane_epsilon_)) continue;
+      const int64_t blocker = shafts.first_blocker(i, j);
+      if (blocker < 0) continue;
+      auto element = [&](size_t e) {
+        return std::to_string(e) + " (" + scene.polygons[mesh.polygon[e]].origin + ")";
+      };
+      throw InputError(
+          "form factors 'exact': the scene can occlude (it is not a convex enclosure, and "
+          "polygon " +
+          std::to_string(blocker) + " (" + scene.polygons[size_t(blocker)].origin +
+          ") may block elements " + element(i) + " and " + element(j) +
+          "); the method computes unoccluded form factors only. Use --ff-set visibility=rays to "
+          "multiply by a raycast visibility fraction, or another method (raycast, hemicube)");
+    }
+  nothing_occludes_ = true;
+}
+
+ExactFormFactors::~ExactFormFactors() = default;
+
+std::vector<std::string> ExactFormFactors::left_out() const {
+  std::vector<std::string> notes = {"pairs facing away or coplanar: no quadrature"};
+  if (visibility_) {
+    for (std::string& note : visibility_->left_out()) notes.push_back(std::move(note));
+  } else if (shafts_) {
+    notes.push_back(
+        "visibility by clipping: pairs whose shaft no polygon reaches get no clipping "
+        "(pairs_unoccluded); the others clip P_j by the shadows of the polygons in their shaft at "
+        "every quadrature point (pairs_traced, rays 0)");
+  } else {
+    notes.push_back(is_convex_enclosure(scene_)
+                        ? "visibility: none (the scene is a convex enclosure, nothing can occlude)"
+                        : "visibility: none (shaft culling proved every pair unoccluded)");
+  }
+  return notes;
+}
+
+double ExactFormFactors::pair(size_t i, size_t j, RowCost& cost) const {
+  if (integrates_from(mesh_, i, j)) return pair_integral(i, j, cost);
+  return reciprocal(pair_integral(j, i, cost), mesh_.area[j], mesh_.area[i]);
+}
+
+double ExactFormFactors::pair_integral(size_t i, size_t j, RowCost& cost) const {
+  if (i == j) return 0.0;
+  if (!pair_faces(mesh_, i, j, plane_epsilon_)) {
+    ++cost.pairs_culled;
+    return 0.0;
+  }
+  thread_local std::vector<Vec3> from, to;
+  mesh_.corners(i, from);
+  mesh_.corners(j, to);
+  // Integrate only over the part of i in front of j's plane (no jump in the integrand).
+  const double kept = clip_to_front(from, mesh_.centroid[j], mesh_.normal[j], plane_epsilon_);
+  if (kept <= 0.0) return 0.0;
+  if (shafts_) {
+    thread_local std::vector<uint32_t> ids;
+    shafts_->blockers(i, j, ids);
+    // Candidates whose plane separates i from j block nothing.
+    thread_local std::vector<Occluder> occluders;
+    occluders.clear();
+    for (uint32_t id : ids) {
+      const Occluder o{scene_.polygons[id].vertices, occluder_normal_[id]};
+      if (!separated_by_plane(o, from, to, plane_epsilon_)) occluders.push_back(o);
+    }
+    if (!occluders.empty()) {
+      ++cost.pairs_traced;
+      // One occluder hiding j from every corner of i hides it from all of i.
+      thread_local VisibleScratch scratch;
+      for (const Occluder& o : occluders)
+        if (hides_from_corners(o, from, mesh_.normal[i], to, mesh_.normal[j], plane_epsilon_,
+                               scratch)) {
+          cost.kernel_evaluations += from.size();
+          return 0.0;
+        }
+      // The same budget as an unoccluded pair: `tolerance` relative to the pair's own value.
+      const double floor = 1e-16 / kept;
+      return kept * clipped_pair(i, j, from, to, occluders, floor, cost);
+    }
+  }
+  const double f = unoccluded(i, j, from, to, kept, cost);
+  if (f <= 0.0) return 0.0;
+  if (visibility_) return f * visibility_->fraction(i, j, cost);
+  ++cost.pairs_unoccluded;
+  return f;
+}
+
+// F_ij without occluders for the part `from` of i in front of j's plane (the fraction `kept`).
+// Separated pairs first try two fixed Gauss rules: the order m the Bernstein bound asks for
+// (FixedOrderRule, polygon_integral.h; as raycast chooses it, with the integrand's size on the
+// ellipse against its mean estimated from i's heights above j's plane) and m - 1; the pair takes
+// the order-m value when the two agree within `tolerance` relative. That difference is the error
+// of the lower rule (the higher one's is smaller by about r^2 >= 1 per order, r the ellipse's
+// parameter), so the estimate is a posteriori, like the adaptive rule's 3x3-against-children
+// difference, at m^2 + (m-1)^2 evaluations (5 to 13 on most pairs of a room at 1e-2) instead of
+// the adaptive rule's 45 or more. Otherwise (touching or near pairs, no order up to
+// kMaxFixedOrder, or the rules disagree) the adaptive rule decides, as before.
+double ExactFormFactors::unoccluded(size_t i, size_t j, std::span<const Vec3> from,
+                                    std::span<const Vec3> to, double kept, RowCost& cost) const {
+  const PolygonRef a{from, mesh_.normal[i]}, b{to, mesh_.normal[j]};
+  const double gap = glm::distance(mesh_.centroid[i], mesh_.centroid[j]) - radius_[i] - radius_[j];
+  const double diameter = 2.0 * radius_[i];
+  if (gap > 0.0) {
+    // The integrand vanishes on j's plane about in proportion to x's height h above it; h is
+    // linear, its mean the value at the kept part's centroid, and on the ellipse it grows by at
+    // most sin(angle between the planes) per unit of i's diameter.
+    double height_max = 0.0;
+    for (const Vec3& v : from)
+      height_max = std::max(height_max, glm::dot(v - mesh_.centroid[j], mesh_.normal[j]));
+    const Vec3 centre = kept < 1.0 ? geometry::centroid(from) : mesh_.centroid[i];
+    const double height_mean = glm::dot(centre - mesh_.centroid[j], mesh_.normal[j]);
+    const double slope = glm::length(glm::cross(mesh_.normal[i], mesh_.normal[j]));
+    const double scale_i = height_mean / (height_max + slope * diameter);
+    // Both elements wholly in front of each other's planes: the double-area rule first
+    // (double_area.h), orders m and m - 1 on both elements, m from the bound for the larger
+    // element and the smaller of the two height scales, the same acceptance test.
+    double j_low = 1e300, j_max = 0.0, i_low = 1e300;
+    for (const Vec3& v : to) {
+      const double h = glm::dot(v - mesh_.centroid[i], mesh_.normal[i]);
+      j_low = std::min(j_low, h);
+      j_max = std::max(j_max, h);
+    }
+    for (const Vec3& v : from)
+      i_low = std::min(i_low, glm::dot(v - mesh_.centroid[j], mesh_.normal[j]));
+    if (kept == 1.0 && i_low > plane_epsilon_ && j_low > plane_epsilon_) {
+      const double both = 2.0 * std::max(radius_[i], radius_[j]);
+      const double h_mean = glm::dot(mesh_.centroid[j] - mesh_.centroid[i], mesh_.normal[i]);
+      const double scale =
+          std::min(height_mean / (height_max + slope * both), h_mean / (j_max + slope * both));
+      const int m = order_rule_.order(gap, both, scale);
+      if (m > 0 && m <= ElementRules::kMaxOrder) {
+        const int order = std::max(2, m);
+        auto rule = [&](size_t e, int o) { return element_rules_.rule(e, o); };
+        const double high = double_area_form_factor(rule(i, order), mesh_.normal[i], rule(j, order),
+                                                    mesh_.normal[j], mesh_.area[j]);
+        const double low =
+            double_area_form_factor(rule(i, order - 1), mesh_.normal[i], rule(j, order - 1),
+                                    mesh_.normal[j], mesh_.area[j]);
+        // Counted as the points of i at which an inner sum over j stands in for F_{dx->j}
+        // (what a kernel evaluation is elsewhere), not the m^4 cheap terms.
+        cost.kernel_evaluations += uint64_t(rule(i, order).count + rule(i, order - 1).count);
+        if (std::abs(high - low) <= options_.tolerance * std::abs(high)) return high;
+      }
+    }
+    const int bound = order_rule_.order(gap, diameter, scale_i);
+    if (bound > 0) {
+      const int order = std::max(2, bound);
+      const double high = polygon_form_factor_fixed(a, b, order);
+      const double low = polygon_form_factor_fixed(a, b, order - 1);
+      const uint64_t cells = from.size() == 4 ? 1 : from.size() - 2;
+      cost.kernel_evaluations += cells * uint64_t(order * order + (order - 1) * (order - 1));
+      if (std::abs(high - low) <= options_.tolerance * std::abs(high)) return kept * high;
+    }
+  }
+  // Absolute floor 1e-16 of F_ij (per unit area, shrinking 4x per level; divided by `kept`
+  // because the integral over the kept part is scaled by it): only cells whose whole contribution
+  // is below double rounding stop on it.
+  long long evaluations = 0;
+  const double f = polygon_form_factor_adaptive(a, b, options_.tolerance, 1e-16 / kept,
+                                                options_.max_depth, &evaluations);
+  cost.kernel_evaluations += uint64_t(evaluations);
+  return kept * f;
+}
+
+// The mean over `from` (i's part in front of j's plane) of F_{dx -> part of j visible from x},
+// the shadows of the polygons `ids` clipped away at every quadrature point (visible_polygon.h).
+// The same adaptive rule, tolerance and floor as the unoccluded integral: the integrand is
+// continuous in x (shadow edges move continuously), with kinks where x sees an occluder's edge
+// line up with another edge, which the adaptive rule refines like a shared edge's singularity.
+double ExactFormFactors::clipped_pair(size_t i, size_t j, std::span<const Vec3> from,
+                                      std::span<const Vec3> to, std::span<const Occluder> occluders,
+                                      double floor, RowCost& cost) const {
+  const Vec3 n = mesh_.normal[i], to_normal = mesh_.normal[j];
+  const double epsilon = plane_epsilon_;
+  thread_local VisibleScratch scratch;
+  const PointIntegrand visible = [&](const Vec3& x) {
+    return visible_form_factor(x, n, to, to_normal, occluders, epsilon, scratch);
+  };
+  long long evaluations = 0;
+  const double f =
+      polygon_integral_adaptive({from, n}, {to, to_normal}, &visible, options_.tolerance, floor,
+                                options_.max_depth, &evaluations);
+  cost.kernel_evaluations += uint64_t(evaluations);
+  return f > 0.0 ? f : 0.0;
+}
+
+void ExactFormFactors::row(size_t i, std::span<double> out, RowCost& cost) const {
+  for (size_t j = 0; j < out.size(); ++j) out[j] = pair(i, j, cost);
+}
+
+bool ExactFormFactors::row_part(size_t i, size_t lo, size_t hi, std::span<double> out,
+                                RowCost& cost) const {
+  for (size_t j = lo; j < hi; ++j) out[j] = pair(i, j, cost);
+  return true;
+}
+
+}  // namespace radlab
