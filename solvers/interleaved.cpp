@@ -166,7 +166,7 @@ void InterleavedSolver::shoot_step() {
   }
 
   const double Ai = core_.system().area()[i];
-  core_.system().with_row(i, [&](const auto* F) {
+  core_.system().with_compact_row(i, [&](const auto& F) {
     best_ = core_.shoot(F, i, s, true, dff_.data());
     // One pass over the members: correct each (an element is a member of one session only, so
     // its value is then final) and see whether it now leads (only if a correction was negative).
@@ -257,7 +257,8 @@ void InterleavedSolver::gather_step() {
   Session& q = *sessions_.back();
   const int channels = core_.channels();
   double gathered[3] = {0.0, 0.0, 0.0};
-  core_.system().with_row(r, [&](const auto* F) { kernels::gather(F, q.snapshot, gathered); });
+  core_.system().with_compact_row(r,
+                                  [&](const auto& F) { kernels::gather(F, q.snapshot, gathered); });
   const System& system = core_.system();
   for (int c = 0; c < channels; ++c) {
     const double B_new = system.emission().at(c, r) + system.reflectance().at(c, r) * gathered[c];

@@ -8,9 +8,14 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
+#include <string>
+#include <type_traits>
 #include <vector>
+
+#include "core/error.h"
 
 // The AVX2 versions use GCC/Clang vector extensions inside functions compiled for AVX2 only;
 // their 32-byte vector values never cross a call boundary (every helper is always_inline), so
@@ -47,14 +52,15 @@ inline double clamped(double v) {
 // ------------------------------------------------------------------------------------------
 // Scalar versions: the definition of the arithmetic.
 
+// Adds F[j] x_c[j] to lane j mod 16 of s[c] for j in [lo, hi): a row's gather is this over
+// [0, n) (or over each stored run of a sparse row) followed by combine().
 template <class T, int C, bool kClamp>
-void gather_scalar(const T* F, size_t n, const double* const* x, double* out) {
-  double s[C][kLanes] = {};
-  for (size_t j = 0; j < n; ++j) {
+void gather_lanes_scalar(const T* F, size_t lo, size_t hi, const double* const* x,
+                         double (*s)[kLanes]) {
+  for (size_t j = lo; j < hi; ++j) {
     const double f = double(F[j]);
     for (int c = 0; c < C; ++c) s[c][j % kLanes] += f * clamped<kClamp>(x[c][j]);
   }
-  for (int c = 0; c < C; ++c) out[c] = combine(s[c]);
 }
 
 template <class T, int C>
@@ -189,27 +195,36 @@ RADLAB_AVX2_INLINE v4d vclamped(v4d v) {
   return v;
 }
 
+// gather_lanes_scalar's sums, 16 columns at a time from the first multiple of 16 in [lo, hi):
+// each lane still adds its columns in increasing order, so the lane sums are the same bits.
 template <class T, int C, bool kClamp>
-RADLAB_AVX2 void gather_avx2(const T* F, size_t n, const double* const* x, double* out) {
-  v4d acc[C][4];
-  for (int c = 0; c < C; ++c)
-    for (int q = 0; q < 4; ++q) acc[c][q] = splat(0.0);
-  size_t j = 0;
-  for (; j + kLanes <= n; j += kLanes) {
-    __builtin_prefetch(F + j + kPrefetch);
-    v4d f[4];
-    for (int q = 0; q < 4; ++q) f[q] = load(F + j + 4 * q);
-    for (int c = 0; c < C; ++c)
-      for (int q = 0; q < 4; ++q) acc[c][q] += f[q] * vclamped<kClamp>(load(x[c] + j + 4 * q));
-  }
-  double s[C][kLanes];
-  for (int c = 0; c < C; ++c)
-    for (int q = 0; q < 4; ++q) std::memcpy(&s[c][4 * q], &acc[c][q], sizeof(v4d));
-  for (; j < n; ++j) {
+RADLAB_AVX2 void gather_lanes_avx2(const T* F, size_t lo, size_t hi, const double* const* x_in,
+                                   double (*s)[kLanes]) {
+  const double* x[C];  // local copies: the stores below may alias any memory
+  for (int c = 0; c < C; ++c) x[c] = x_in[c];
+  size_t j = lo;
+  for (; j < hi && j % kLanes != 0; ++j) {
     const double f = double(F[j]);
     for (int c = 0; c < C; ++c) s[c][j % kLanes] += f * clamped<kClamp>(x[c][j]);
   }
-  for (int c = 0; c < C; ++c) out[c] = combine(s[c]);
+  if (j + kLanes <= hi) {
+    v4d acc[C][4];
+    for (int c = 0; c < C; ++c)
+      for (int q = 0; q < 4; ++q) acc[c][q] = load(&s[c][4 * q]);
+    for (; j + kLanes <= hi; j += kLanes) {
+      __builtin_prefetch(F + j + kPrefetch);
+      v4d f[4];
+      for (int q = 0; q < 4; ++q) f[q] = load(F + j + 4 * q);
+      for (int c = 0; c < C; ++c)
+        for (int q = 0; q < 4; ++q) acc[c][q] += f[q] * vclamped<kClamp>(load(x[c] + j + 4 * q));
+    }
+    for (int c = 0; c < C; ++c)
+      for (int q = 0; q < 4; ++q) store(&s[c][4 * q], acc[c][q]);
+  }
+  for (; j < hi; ++j) {
+    const double f = double(F[j]);
+    for (int c = 0; c < C; ++c) s[c][j % kLanes] += f * clamped<kClamp>(x[c][j]);
+  }
 }
 
 template <class T, int C>
@@ -416,30 +431,72 @@ bool detect_avx2() {
 #endif
 }
 
+// RADLAB_KERNELS: "scalar" forces the scalar versions; unset, empty or "auto" leaves the choice
+// to the CPU. Anything else is refused (check_kernel_environment) rather than ignored.
+const char* kernel_environment() {
+  const char* value = std::getenv("RADLAB_KERNELS");
+  return value ? value : "";
+}
+
 std::atomic<bool>& vector_enabled() {
-  static std::atomic<bool> enabled{detect_avx2()};
+  static std::atomic<bool> enabled{detect_avx2() &&
+                                   std::strcmp(kernel_environment(), "scalar") != 0};
   return enabled;
 }
 
 // ------------------------------------------------------------------------------------------
 // Dispatch on channels and instruction set.
 
-template <class T, bool kClamp>
-void gather_dispatch(const T* F, const Radiosity& x, double* out) {
+// The column origin of a run: origin[j] is the run's value for column j (first <= j). Formed by
+// integer arithmetic, as the pointer itself may lie before the values' array; only columns of the
+// run are read through it.
+template <class T>
+const T* column_origin(const T* values, size_t first) {
+  return reinterpret_cast<const T*>(reinterpret_cast<uintptr_t>(values) - first * sizeof(T));
+}
+
+// Calls lanes(F, lo, hi) over the row's columns: [0, n) of a dense row, each stored run of a
+// sparse one (with F the run's column origin).
+template <class T, class Fn>
+void for_each_stored(const T* F, size_t n, Fn&& lanes) {
+  lanes(F, size_t(0), n);
+}
+template <class T, class Fn>
+void for_each_stored(const RunRow<T>& F, size_t, Fn&& lanes) {
+  for (size_t k = 0; k < F.runs; ++k) {
+    const size_t first = F.first(k);
+    lanes(column_origin(F.value + F.begin(k), first), first, first + F.count(k));
+  }
+}
+
+template <int C, bool kClamp, class Row>
+void gather_channels(const Row& F, size_t n, const double* const* x, double* out) {
+  double s[C][kLanes] = {};
+#ifdef RADLAB_HAVE_AVX2_KERNELS
+  if (vector_enabled().load(std::memory_order_relaxed)) {
+    for_each_stored(F, n, [&](const auto* row, size_t lo, size_t hi) {
+      gather_lanes_avx2<std::remove_cvref_t<decltype(*row)>, C, kClamp>(row, lo, hi, x, s);
+    });
+    for (int c = 0; c < C; ++c) out[c] = combine(s[c]);
+    return;
+  }
+#endif
+  for_each_stored(F, n, [&](const auto* row, size_t lo, size_t hi) {
+    gather_lanes_scalar<std::remove_cvref_t<decltype(*row)>, C, kClamp>(row, lo, hi, x, s);
+  });
+  for (int c = 0; c < C; ++c) out[c] = combine(s[c]);
+}
+
+template <bool kClamp, class Row>
+void gather_dispatch(const Row& F, const Radiosity& x, double* out) {
   const size_t n = x.size();
   const double* ptr[3] = {x.channel(0).data(), nullptr, nullptr};
   if (x.channels() == 3) {
     ptr[1] = x.channel(1).data();
     ptr[2] = x.channel(2).data();
   }
-#ifdef RADLAB_HAVE_AVX2_KERNELS
-  if (vector_enabled().load(std::memory_order_relaxed)) {
-    if (x.channels() == 1) return gather_avx2<T, 1, kClamp>(F, n, ptr, out);
-    return gather_avx2<T, 3, kClamp>(F, n, ptr, out);
-  }
-#endif
-  if (x.channels() == 1) return gather_scalar<T, 1, kClamp>(F, n, ptr, out);
-  return gather_scalar<T, 3, kClamp>(F, n, ptr, out);
+  if (x.channels() == 1) return gather_channels<1, kClamp>(F, n, ptr, out);
+  gather_channels<3, kClamp>(F, n, ptr, out);
 }
 
 template <class T>
@@ -535,15 +592,48 @@ Argmax shoot_dispatch(const T* F, size_t lo, size_t hi, const double* k, double 
   return result;
 }
 
+// A shot on a sparse row's stored runs: each run's receivers get the dense kernel over the run
+// (the same arithmetic, so the same bits); the receivers in the gaps would get exactly nothing
+// (kernels_row.h), so with select they are only scanned for their priority. The pieces' maxima are
+// taken in index order with a strict `>`, which keeps the lowest index, as one dense pass does.
+template <class T>
+Argmax shoot_sparse(const RunRow<T>& F, size_t lo, size_t hi, const double* k, double cs,
+                    const ShotTargets& t, bool select) {
+  Argmax best;
+  const auto take = [&best](const Argmax& a) {
+    if (a.value > best.value) best = a;
+  };
+  size_t done = lo;  // receivers before `done` are updated or scanned
+  for (size_t r = 0; r < F.runs; ++r) {
+    const size_t first = F.first(r);
+    if (first >= hi) break;
+    const size_t a = std::max(first, lo), b = std::min(first + F.count(r), hi);
+    if (a >= b) continue;
+    if (select && done < a) take(max_priority(done, a, t));
+    take(shoot_dispatch(column_origin(F.value + F.begin(r), first), a, b, k, cs, t, select));
+    done = b;
+  }
+  if (select && done < hi) take(max_priority(done, hi, t));
+  return select ? best : Argmax{};
+}
+
 }  // namespace
 
 void gather(const float* F, const Radiosity& x, double* out, bool clamp_negative) {
-  if (clamp_negative) return gather_dispatch<float, true>(F, x, out);
-  gather_dispatch<float, false>(F, x, out);
+  if (clamp_negative) return gather_dispatch<true>(F, x, out);
+  gather_dispatch<false>(F, x, out);
 }
 void gather(const double* F, const Radiosity& x, double* out, bool clamp_negative) {
-  if (clamp_negative) return gather_dispatch<double, true>(F, x, out);
-  gather_dispatch<double, false>(F, x, out);
+  if (clamp_negative) return gather_dispatch<true>(F, x, out);
+  gather_dispatch<false>(F, x, out);
+}
+void gather(const RunRow<float>& F, const Radiosity& x, double* out, bool clamp_negative) {
+  if (clamp_negative) return gather_dispatch<true>(F, x, out);
+  gather_dispatch<false>(F, x, out);
+}
+void gather(const RunRow<double>& F, const Radiosity& x, double* out, bool clamp_negative) {
+  if (clamp_negative) return gather_dispatch<true>(F, x, out);
+  gather_dispatch<false>(F, x, out);
 }
 
 void gather_scatter(const float* F, const Radiosity& x, double* out, Radiosity& z,
@@ -562,6 +652,15 @@ Argmax shoot(const float* F, size_t lo, size_t hi, const double* k, double cover
 Argmax shoot(const double* F, size_t lo, size_t hi, const double* k, double coverage_scale,
              const ShotTargets& targets, bool select) {
   return shoot_dispatch(F, lo, hi, k, coverage_scale, targets, select);
+}
+
+Argmax shoot(const RunRow<float>& F, size_t lo, size_t hi, const double* k, double coverage_scale,
+             const ShotTargets& targets, bool select) {
+  return shoot_sparse(F, lo, hi, k, coverage_scale, targets, select);
+}
+Argmax shoot(const RunRow<double>& F, size_t lo, size_t hi, const double* k, double coverage_scale,
+             const ShotTargets& targets, bool select) {
+  return shoot_sparse(F, lo, hi, k, coverage_scale, targets, select);
 }
 
 namespace {
@@ -600,6 +699,16 @@ void unshot_power(const ShotTargets& t, size_t n, bool clamp_negative, double* o
 
 size_t set_parallel_shot_minimum(size_t receivers) {
   return parallel_minimum().exchange(receivers);
+}
+
+bool vector_kernels() {
+  return vector_enabled().load();
+}
+
+void check_kernel_environment() {
+  const std::string value = kernel_environment();
+  if (!value.empty() && value != "auto" && value != "scalar")
+    throw UsageError("RADLAB_KERNELS must be 'scalar' or 'auto' (or unset), got '" + value + "'");
 }
 
 bool use_vector_kernels(bool enable) {
