@@ -20,8 +20,9 @@
 // sums where the CPU has AVX2), what one core can stream (issue 13 target 5: >= 0.5). Run:
 //   build/bench/bench_solvers --benchmark_counters_tabular=true
 // Quote the ratios from one run; absolute times on this machine are noisy.
-// rgb/gapped/*: one RGB sorted shot on a matrix with half its entries zero, dense, sparse through
-// a scratch row, and sparse through kernels::RunRow (the sparse layout's path).
+// rgb/gapped/*: one RGB gather and one RGB sorted shot on a matrix with half its entries zero,
+// dense, sparse through a scratch row, and sparse through kernels::RunRow (the sparse layout's
+// path).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -309,7 +310,36 @@ void BM_GappedShot(benchmark::State& state, int form) {
   report(state, p, Order::kScattered, row, t);
 }
 
+// The RGB gather (Jacobi's, rows in order) on the gapped matrix's three row forms, as above.
+void BM_GappedGather(benchmark::State& state, int form) {
+  const Problem& p = rgb();
+  const Gapped& g = gapped();
+  const Radiosity& x = p.system->emission();
+  const size_t n = p.system->size();
+  double out[3];
+  size_t row = 0;
+  const double start = cpu_seconds();
+  for (auto _ : state) {
+    const size_t i = row++ % n;
+    const FormFactorMatrix::SparseRow& r = g.sparse.sparse_row(i);
+    if (form == 0)
+      kernels::gather(g.dense.row_f32(i), x, out);
+    else if (form == 1)
+      g.sparse.visit_row(i, [&](const auto* F) { kernels::gather(F, x, out); });
+    else
+      kernels::gather(
+          kernels::RunRow<float>{r.run.data(), r.run.size() / 2, r.f32.data(), r.f32.size()}, x,
+          out);
+    benchmark::DoNotOptimize(out[0]);
+  }
+  const double t = cpu_seconds() - start;
+  report(state, p, Order::kInOrder, row, t);
+}
+
 void register_all() {
+  benchmark::RegisterBenchmark("rgb/gapped/Gather(dense)", BM_GappedGather, 0);
+  benchmark::RegisterBenchmark("rgb/gapped/Gather(sparse, scratch row)", BM_GappedGather, 1);
+  benchmark::RegisterBenchmark("rgb/gapped/Gather(sparse, runs)", BM_GappedGather, 2);
   benchmark::RegisterBenchmark("rgb/gapped/Shot(dense)", BM_GappedShot, 0);
   benchmark::RegisterBenchmark("rgb/gapped/Shot(sparse, scratch row)", BM_GappedShot, 1);
   benchmark::RegisterBenchmark("rgb/gapped/Shot(sparse, runs)", BM_GappedShot, 2);

@@ -1,7 +1,8 @@
 // The solver kernels' two instruction paths and two row forms give the same bits:
 //   - the AVX2 and the scalar versions (kernels.h: the same operations in the same order, sums
 //     in the same 16 lanes, no fused multiply-adds), for the gather, the gather-scatter and the
-//     shot, on ranges that start and end off any vector boundary;
+//     priority scan (the shot's own comparison is in tests/shooting_test.cpp), on ranges that start
+//     and end off any vector boundary;
 //   - a sparse row's stored runs (kernels_row.h) and its dense form, for the gather and the shot
 //     (skipping a zero is exact, see kernels_row.h), kernel by kernel and through whole solver
 //     runs on a System over a dense and a sparse matrix with the same entries.
@@ -142,6 +143,32 @@ void expect_same(const ShotState& a, const ShotState& b, const kernels::Argmax& 
       << what << ": coverage";
   EXPECT_TRUE(same_bits(&ma.value, &mb.value, 1)) << what << ": the maximum";
   EXPECT_EQ(ma.index, mb.index) << what << ": its index";
+}
+
+// The scan for the largest priority (after gathers, and after a sparse row's shot): the same value
+// and lowest index on both paths, with ties (equal dB and areas repeated along the array).
+TEST(KernelsDispatch, MaxPriorityScalarEqualsVector) {
+  VectorGuard guard;
+  if (!kernels::use_vector_kernels(true)) GTEST_SKIP() << "no AVX2 on this CPU";
+  Pcg32 rng(29);
+  const size_t n = 301;
+  ShotState state = random_state(n, rng);
+  for (size_t j = 150; j < n; ++j) {  // the second half repeats the first: every maximum is tied
+    state.area[j] = state.area[j - 150];
+    for (int c = 0; c < 3; ++c) state.dB[size_t(c) * n + j] = state.dB[size_t(c) * n + j - 150];
+  }
+  for (int C : {1, 3})
+    for (bool offsets : {false, true})
+      for (auto [lo, hi] : {std::pair<size_t, size_t>{0, n}, {3, 200}, {151, n}, {5, 6}, {9, 9}}) {
+        const kernels::ShotTargets t = state.targets(C, n, false, offsets);
+        kernels::use_vector_kernels(false);
+        const kernels::Argmax want = kernels::max_priority(lo, hi, t);
+        kernels::use_vector_kernels(true);
+        const kernels::Argmax got = kernels::max_priority(lo, hi, t);
+        EXPECT_TRUE(same_bits(&want.value, &got.value, 1))
+            << "C=" << C << " [" << lo << ", " << hi << ")";
+        EXPECT_EQ(want.index, got.index) << "C=" << C << " [" << lo << ", " << hi << ")";
+      }
 }
 
 // A sparse matrix's row and its dense form: gather and shot, both instruction paths, every
