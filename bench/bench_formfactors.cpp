@@ -28,16 +28,16 @@
 
 #include "bench/bench_clock.h"
 #include "bench/bench_scenes.h"
-#include "core/random.h"
-#include "formfactor/embree_scene.h"
-#include "formfactor/hemicube.h"
-#include "formfactor/matrix.h"
-#include "formfactor/raycast.h"
-#include "formfactor/sampling.h"
-#include "formfactor/shaft.h"
-#include "formfactor/visibility.h"
-#include "scene/builtin_scenes.h"
-#include "scene/validate.h"
+#include "radlab/core/random.h"
+#include "radlab/formfactor/embree_scene.h"
+#include "radlab/formfactor/hemicube.h"
+#include "radlab/formfactor/matrix.h"
+#include "radlab/formfactor/raycast.h"
+#include "radlab/formfactor/sampling.h"
+#include "radlab/formfactor/shaft.h"
+#include "radlab/formfactor/visibility.h"
+#include "radlab/scene/builtin_scenes.h"
+#include "radlab/scene/validate.h"
 
 namespace radlab {
 namespace {

@@ -1,6 +1,6 @@
-// Lambert's point-to-polygon formula (formfactor/point_polygon.h): the scalar path, one point at
-// a time with libm's atan2, against the batched evaluator, all of a rule's points against one
-// polygon in one call, on the inputs the raycast form factors give it.
+// Lambert's point-to-polygon formula (src/radlab/formfactor/point_polygon.h): the scalar path, one
+// point at a time with libm's atan2, against the batched evaluator, all of a rule's points against
+// one polygon in one call, on the inputs the raycast form factors give it.
 //
 // Inputs: the Cornell box at --subdiv 16 (5,120 elements, as bench_formfactors). For 64 rows
 // spread over the mesh, every facing pair (i, j) whose fixed Gauss rule suffices (raycast's
@@ -22,13 +22,13 @@
 
 #include "bench/bench_clock.h"
 #include "bench/bench_scenes.h"
-#include "formfactor/point_polygon.h"
-#include "formfactor/polygon_integral.h"
-#include "formfactor/quadrature.h"
-#include "formfactor/raycast.h"
-#include "formfactor/visibility.h"
-#include "scene/builtin_scenes.h"
-#include "scene/validate.h"
+#include "radlab/formfactor/point_polygon.h"
+#include "radlab/formfactor/polygon_integral.h"
+#include "radlab/formfactor/quadrature.h"
+#include "radlab/formfactor/raycast.h"
+#include "radlab/formfactor/visibility.h"
+#include "radlab/scene/builtin_scenes.h"
+#include "radlab/scene/validate.h"
 
 namespace radlab {
 namespace {

@@ -17,11 +17,11 @@
 #include <vector>
 
 #include "bench/bench_clock.h"
-#include "formfactor/exact.h"
-#include "formfactor/matrix.h"
-#include "formfactor/symmetric_build.h"
-#include "scene/mesh.h"
-#include "scene/validate.h"
+#include "radlab/formfactor/exact.h"
+#include "radlab/formfactor/matrix.h"
+#include "radlab/formfactor/symmetric_build.h"
+#include "radlab/scene/mesh.h"
+#include "radlab/scene/validate.h"
 
 namespace radlab {
 namespace {

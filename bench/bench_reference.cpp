@@ -14,8 +14,8 @@
 #include <memory>
 #include <string>
 
-#include "experiments/problem.h"
-#include "solvers/reference.h"
+#include "radlab/experiments/problem.h"
+#include "radlab/solvers/reference.h"
 
 namespace radlab {
 namespace {

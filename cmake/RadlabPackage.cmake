@@ -7,26 +7,13 @@
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
-set(radlab_public_folders core scene formfactor solvers metrics render experiments)
-# The command line's own header is not part of the library.
-set(radlab_private_headers experiments/cli_common.h)
-set(radlab_staged_include ${PROJECT_BINARY_DIR}/include)
-
-string(REPLACE ";" "|" folder_list "${radlab_public_folders}")
-string(REPLACE ";" "|" exclude_list "${radlab_private_headers}")
-add_custom_target(radlab_headers ALL
-                  COMMAND ${CMAKE_COMMAND} -DSOURCE_DIR=${PROJECT_SOURCE_DIR}
-                          -DOUTPUT_DIR=${radlab_staged_include} "-DFOLDERS=${folder_list}"
-                          "-DEXCLUDE=${exclude_list}"
-                          "-DEXTRA=core/version.h=${PROJECT_BINARY_DIR}/generated/core/version.h"
-                          -P ${PROJECT_SOURCE_DIR}/cmake/StageHeaders.cmake
-                  COMMENT "Staging the public headers under include/radlab/" VERBATIM)
-
+# The headers are installed straight from the tree: src/radlab/<folder>/*.h is the layout of
+# <prefix>/include/radlab/<folder>/*.h, and every file includes the others by that name.
 # radlab::plugin: the headers and their header-only dependencies, no library. A plugin resolves
 # radlab's symbols against the executable that loads it (ENABLE_EXPORTS on radlab).
 add_library(radlab_plugin INTERFACE)
-add_dependencies(radlab_plugin radlab_headers)
-target_include_directories(radlab_plugin INTERFACE $<BUILD_INTERFACE:${radlab_staged_include}>
+target_include_directories(radlab_plugin INTERFACE $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/src>
+                                                   $<BUILD_INTERFACE:${PROJECT_BINARY_DIR}/generated>
                                                    $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
 target_link_libraries(radlab_plugin INTERFACE glm::glm nlohmann_json::nlohmann_json)
 target_compile_features(radlab_plugin INTERFACE cxx_std_20)
@@ -42,7 +29,10 @@ install(TARGETS ${radlab_exported} radlab EXPORT radlabTargets
         LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
         RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR}
         INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
-install(DIRECTORY ${radlab_staged_include}/radlab DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/src/radlab DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
+        FILES_MATCHING PATTERN "*.h")
+install(FILES ${PROJECT_BINARY_DIR}/generated/radlab/core/version.h
+        DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/radlab/core)
 install(EXPORT radlabTargets NAMESPACE radlab:: FILE radlabTargets.cmake
         DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/radlab)
 configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/radlabConfig.cmake.in

@@ -5,7 +5,7 @@
 #include <cstdlib>
 #include <fstream>
 
-#include "core/limits.h"
+#include "radlab/core/limits.h"
 
 namespace radlab::fuzz {
 

@@ -3,7 +3,7 @@
 
 Usage: scripts/formfactor_catalogue.py [RADLAB] [--out-dir docs/figures] [--repeats 3]
 
-RADLAB is the radlab binary (default build/experiments/radlab). Needs Debian's python3-numpy and
+RADLAB is the radlab binary (default build/cli/radlab). Needs Debian's python3-numpy and
 python3-matplotlib. Writes OUT_DIR/formfactors_catalogue.csv and
 OUT_DIR/formfactors_accuracy_cost.png, and prints the Markdown table of docs/formfactors.md.
 Takes about 30 s.
@@ -290,7 +290,7 @@ def plot(rows, path):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("radlab", nargs="?", default="build/experiments/radlab")
+    parser.add_argument("radlab", nargs="?", default="build/cli/radlab")
     parser.add_argument("--out-dir", default="docs/figures")
     parser.add_argument("--repeats", type=int, default=3, help="timing runs per point (minimum)")
     args = parser.parse_args()

@@ -6,7 +6,7 @@ prints (elements, repairs on loading, row sums of the computed matrix, build tim
 markdown table between the markers `<!-- renderpark-rowsums begin -->` and `... end -->` in
 docs/scenes.md (or prints it with --print). Usage, from the repository root:
 
-    nice scripts/renderpark_table.py [--radlab build/experiments/radlab] [--scenes DIR] [--print]
+    nice scripts/renderpark_table.py [--radlab build/cli/radlab] [--scenes DIR] [--print]
 
 hospital/hosp.mgf takes minutes; the matrix cache (RADLAB_CACHE_DIR) makes a second run fast, and
 the table then reports the time of the original build.
@@ -49,7 +49,7 @@ def run(radlab, path):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--radlab", default="build/experiments/radlab")
+    parser.add_argument("--radlab", default="build/cli/radlab")
     parser.add_argument("--scenes", default="../shared/scenes/renderpark")
     parser.add_argument("--doc", default="docs/scenes.md")
     parser.add_argument("--print", action="store_true", help="print the table, do not edit the doc")

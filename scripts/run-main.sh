@@ -10,7 +10,7 @@ out="${1:-$root/out/main}"
 "$root/scripts/build.sh" "$root/build"
 source "$root/scripts/python.sh"   # sets $python: a python3 with matplotlib, numpy and pandas
 
-"$root/build/experiments/radlab" run "$root/experiments/quick.toml" --out "$out"
+"$root/build/cli/radlab" run "$root/experiments/quick.toml" --out "$out"
 "$python" "$root/scripts/plot_traces.py" "$out" --out "$out/plots"
 "$python" "$root/scripts/contact_sheet.py" "$out" --kind both --out "$out/contact_sheet.png"
 

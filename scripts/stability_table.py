@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """The stability table: runs experiments/stability.toml and writes docs/stability.md.
 
-Usage: stability_table.py [--radlab build/experiments/radlab] [--work build/stability]
+Usage: stability_table.py [--radlab build/cli/radlab] [--work build/stability]
                           [--out docs/stability.md]
 
 One command makes the whole table (about a minute here). For every solver x case it records the
@@ -268,7 +268,7 @@ def evaluate(args, path):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--radlab", default="build/experiments/radlab")
+    ap.add_argument("--radlab", default="build/cli/radlab")
     ap.add_argument("--work", default="build/stability")
     ap.add_argument("--out", default="docs/stability.md")
     ap.add_argument("--timeout", type=float, default=1800.0,

@@ -5,7 +5,7 @@
 # docs/figures/storage_floor.png. Usage: scripts/storage_floor.sh [radlab binary]
 set -euo pipefail
 cd "$(dirname "$0")/.."
-radlab=${1:-build/experiments/radlab}
+radlab=${1:-build/cli/radlab}
 . scripts/python.sh
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT

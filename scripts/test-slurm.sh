@@ -18,7 +18,7 @@ if [ "$(id -u)" -ne 0 ]; then
   echo "test-slurm: needs root (installs packages, starts munged/slurmctld/slurmd)" >&2
   exit 2
 fi
-if [ ! -x "$build/tests/workflow_test" ] || [ ! -x "$build/experiments/radlab" ]; then
+if [ ! -x "$build/tests/workflow_test" ] || [ ! -x "$build/cli/radlab" ]; then
   echo "test-slurm: build radlab and workflow_test in $build first" >&2
   exit 2
 fi

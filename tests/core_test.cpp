@@ -8,14 +8,14 @@
 #include <fstream>
 #include <limits>
 
-#include "core/csv.h"
-#include "core/csv_reader.h"
-#include "core/error.h"
-#include "core/json.h"
-#include "core/json_reader.h"
-#include "core/param_bag.h"
-#include "core/random.h"
-#include "core/text.h"
+#include "radlab/core/csv.h"
+#include "radlab/core/csv_reader.h"
+#include "radlab/core/error.h"
+#include "radlab/core/json.h"
+#include "radlab/core/json_reader.h"
+#include "radlab/core/param_bag.h"
+#include "radlab/core/random.h"
+#include "radlab/core/text.h"
 #include "tests/test_support.h"
 
 namespace radlab {

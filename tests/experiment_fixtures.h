@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "core/csv_reader.h"
+#include "radlab/core/csv_reader.h"
 
 namespace radlab::testing {
 

@@ -12,16 +12,16 @@
 #include <set>
 #include <sstream>
 
-#include "core/csv_reader.h"
-#include "core/error.h"
-#include "experiments/experiment_spec.h"
-#include "experiments/merge.h"
-#include "experiments/summary.h"
-#include "experiments/sweep.h"
-#include "experiments/trace.h"
-#include "formfactor/form_factor_method.h"
-#include "scene/scene_loader.h"
-#include "solvers/registry.h"
+#include "radlab/core/csv_reader.h"
+#include "radlab/core/error.h"
+#include "radlab/experiments/experiment_spec.h"
+#include "radlab/experiments/merge.h"
+#include "radlab/experiments/summary.h"
+#include "radlab/experiments/sweep.h"
+#include "radlab/experiments/trace.h"
+#include "radlab/formfactor/form_factor_method.h"
+#include "radlab/scene/scene_loader.h"
+#include "radlab/solvers/registry.h"
 #include "tests/experiment_fixtures.h"
 #include "tests/test_support.h"
 

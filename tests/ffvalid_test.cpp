@@ -8,15 +8,15 @@
 #include <filesystem>
 #include <glm/geometric.hpp>
 
-#include "formfactor/diagnostics.h"
-#include "formfactor/matrix.h"
-#include "formfactor/raycast.h"
-#include "formfactor/sampling.h"
-#include "scene/geometry.h"
-#include "scene/mesh.h"
-#include "scene/overlap.h"
-#include "scene/scene_loader.h"
-#include "scene/validate.h"
+#include "radlab/formfactor/diagnostics.h"
+#include "radlab/formfactor/matrix.h"
+#include "radlab/formfactor/raycast.h"
+#include "radlab/formfactor/sampling.h"
+#include "radlab/scene/geometry.h"
+#include "radlab/scene/mesh.h"
+#include "radlab/scene/overlap.h"
+#include "radlab/scene/scene_loader.h"
+#include "radlab/scene/validate.h"
 #include "tests/test_support.h"
 
 namespace radlab {

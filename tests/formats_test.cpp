@@ -6,11 +6,11 @@
 #include <map>
 #include <string>
 
-#include "experiments/experiment_spec.h"
-#include "render/exr_io.h"
-#include "scene/builtin_scenes.h"
-#include "scene/mesh.h"
-#include "scene/scene_loader.h"
+#include "radlab/experiments/experiment_spec.h"
+#include "radlab/render/exr_io.h"
+#include "radlab/scene/builtin_scenes.h"
+#include "radlab/scene/mesh.h"
+#include "radlab/scene/scene_loader.h"
 #include "tests/test_support.h"
 
 namespace radlab {

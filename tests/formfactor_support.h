@@ -4,9 +4,9 @@
 
 #include <vector>
 
-#include "formfactor/raycast.h"
-#include "scene/mesh.h"
-#include "scene/scene.h"
+#include "radlab/formfactor/raycast.h"
+#include "radlab/scene/mesh.h"
+#include "radlab/scene/scene.h"
 #include "tests/test_support.h"
 
 namespace radlab::testing {

@@ -1,22 +1,22 @@
-// Tests of the hierarchical solver's row normalisation (solvers/hierarchical_rows.h): no leaf's
-// row sum above 1, exactly 1 in a closed unoccluded box, and convergence to E/(1-rho) and to the
-// certified reference on the closed cube at rho = 0.999, where the unnormalised link sums
-// (up to 1.49 there) made the passes diverge.
-#include "solvers/hierarchical_rows.h"
+// Tests of the hierarchical solver's row normalisation (src/radlab/solvers/hierarchical_rows.h): no
+// leaf's row sum above 1, exactly 1 in a closed unoccluded box, and convergence to E/(1-rho) and to
+// the certified reference on the closed cube at rho = 0.999, where the unnormalised link sums (up
+// to 1.49 there) made the passes diverge.
+#include "radlab/solvers/hierarchical_rows.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <map>
 
-#include "formfactor/raycast.h"
-#include "metrics/error_metrics.h"
-#include "scene/builtin_scenes.h"
-#include "scene/validate.h"
-#include "solvers/hierarchical_hierarchy.h"
-#include "solvers/hierarchical_refine.h"
-#include "solvers/reference.h"
-#include "solvers/registry.h"
+#include "radlab/formfactor/raycast.h"
+#include "radlab/metrics/error_metrics.h"
+#include "radlab/scene/builtin_scenes.h"
+#include "radlab/scene/validate.h"
+#include "radlab/solvers/hierarchical_hierarchy.h"
+#include "radlab/solvers/hierarchical_refine.h"
+#include "radlab/solvers/reference.h"
+#include "radlab/solvers/registry.h"
 #include "tests/hierarchical_support.h"
 #include "tests/test_support.h"
 

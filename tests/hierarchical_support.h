@@ -6,13 +6,13 @@
 #include <memory>
 #include <string>
 
-#include "formfactor/matrix.h"
-#include "formfactor/raycast.h"
-#include "scene/builtin_scenes.h"
-#include "scene/mesh.h"
-#include "scene/validate.h"
-#include "solvers/reference.h"
-#include "solvers/system.h"
+#include "radlab/formfactor/matrix.h"
+#include "radlab/formfactor/raycast.h"
+#include "radlab/scene/builtin_scenes.h"
+#include "radlab/scene/mesh.h"
+#include "radlab/scene/validate.h"
+#include "radlab/solvers/reference.h"
+#include "radlab/solvers/system.h"
 
 namespace radlab::testing {
 

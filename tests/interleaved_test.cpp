@@ -12,7 +12,7 @@
 // the matrix first (formfactor's symmetrise(): A_i F_ij = A_j F_ji exactly in double, to float
 // rounding in float); tests of the bookkeeping itself run on the raw, non-reciprocal matrix.
 
-#include "solvers/interleaved.h"
+#include "radlab/solvers/interleaved.h"
 
 #include <gtest/gtest.h>
 
@@ -21,17 +21,17 @@
 #include <cmath>
 #include <map>
 
-#include "core/error.h"
-#include "core/random.h"
-#include "formfactor/exact.h"
-#include "formfactor/raycast.h"
-#include "metrics/error_metrics.h"
-#include "scene/builtin_scenes.h"
-#include "scene/validate.h"
-#include "solvers/kernels.h"
-#include "solvers/reference.h"
-#include "solvers/registry.h"
-#include "solvers/shooting_core.h"
+#include "radlab/core/error.h"
+#include "radlab/core/random.h"
+#include "radlab/formfactor/exact.h"
+#include "radlab/formfactor/raycast.h"
+#include "radlab/metrics/error_metrics.h"
+#include "radlab/scene/builtin_scenes.h"
+#include "radlab/scene/validate.h"
+#include "radlab/solvers/kernels.h"
+#include "radlab/solvers/reference.h"
+#include "radlab/solvers/registry.h"
+#include "radlab/solvers/shooting_core.h"
 #include "tests/solver_support.h"
 #include "tests/test_support.h"
 

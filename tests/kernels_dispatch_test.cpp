@@ -15,13 +15,13 @@
 #include <string>
 #include <vector>
 
-#include "core/random.h"
-#include "formfactor/matrix.h"
-#include "scene/builtin_scenes.h"
-#include "scene/validate.h"
-#include "solvers/kernels.h"
-#include "solvers/registry.h"
-#include "solvers/system.h"
+#include "radlab/core/random.h"
+#include "radlab/formfactor/matrix.h"
+#include "radlab/scene/builtin_scenes.h"
+#include "radlab/scene/validate.h"
+#include "radlab/solvers/kernels.h"
+#include "radlab/solvers/registry.h"
+#include "radlab/solvers/system.h"
 
 namespace radlab {
 namespace {

@@ -1,7 +1,7 @@
 // The form-factor matrix cache (keys, reuse, corruption) and symmetrising.
 //
 // Tolerances are derived in the comments next to them, never tuned to the measured error.
-#include "formfactor/matrix_cache.h"
+#include "radlab/formfactor/matrix_cache.h"
 
 #include <gtest/gtest.h>
 
@@ -14,21 +14,21 @@
 #include <numbers>
 #include <numeric>
 
-#include "core/error.h"
-#include "experiments/problem.h"
-#include "formfactor/diagnostics.h"
-#include "formfactor/exact.h"
-#include "formfactor/hemicube.h"
-#include "formfactor/matrix.h"
-#include "formfactor/point_polygon.h"
-#include "formfactor/polygon_integral.h"
-#include "formfactor/quadrature.h"
-#include "formfactor/raycast.h"
-#include "formfactor/shaft.h"
-#include "formfactor/visibility.h"
-#include "scene/builtin_scenes.h"
-#include "scene/geometry.h"
-#include "scene/validate.h"
+#include "radlab/core/error.h"
+#include "radlab/experiments/problem.h"
+#include "radlab/formfactor/diagnostics.h"
+#include "radlab/formfactor/exact.h"
+#include "radlab/formfactor/hemicube.h"
+#include "radlab/formfactor/matrix.h"
+#include "radlab/formfactor/point_polygon.h"
+#include "radlab/formfactor/polygon_integral.h"
+#include "radlab/formfactor/quadrature.h"
+#include "radlab/formfactor/raycast.h"
+#include "radlab/formfactor/shaft.h"
+#include "radlab/formfactor/visibility.h"
+#include "radlab/scene/builtin_scenes.h"
+#include "radlab/scene/geometry.h"
+#include "radlab/scene/validate.h"
 #include "tests/formfactor_support.h"
 #include "tests/test_support.h"
 

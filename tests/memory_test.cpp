@@ -9,14 +9,14 @@
 #include <fstream>
 #include <random>
 
-#include "core/error.h"
-#include "core/limits.h"
-#include "experiments/problem.h"
-#include "formfactor/matrix.h"
-#include "formfactor/matrix_cache.h"
-#include "solvers/reference.h"
-#include "solvers/registry.h"
-#include "solvers/system.h"
+#include "radlab/core/error.h"
+#include "radlab/core/limits.h"
+#include "radlab/experiments/problem.h"
+#include "radlab/formfactor/matrix.h"
+#include "radlab/formfactor/matrix_cache.h"
+#include "radlab/solvers/reference.h"
+#include "radlab/solvers/registry.h"
+#include "radlab/solvers/system.h"
 #include "tests/test_support.h"
 
 namespace radlab {

@@ -4,9 +4,9 @@
 
 #include <cmath>
 
-#include "core/random.h"
-#include "metrics/convergence_fit.h"
-#include "metrics/error_metrics.h"
+#include "radlab/core/random.h"
+#include "radlab/metrics/convergence_fit.h"
+#include "radlab/metrics/error_metrics.h"
 
 namespace radlab {
 namespace {

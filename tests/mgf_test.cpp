@@ -10,12 +10,12 @@
 #include <glm/geometric.hpp>
 #include <numbers>
 
-#include "core/error.h"
-#include "scene/cie_colour.h"
-#include "scene/geometry.h"
-#include "scene/mgf_reader.h"
-#include "scene/scene_loader.h"
-#include "scene/validate.h"
+#include "radlab/core/error.h"
+#include "radlab/scene/cie_colour.h"
+#include "radlab/scene/geometry.h"
+#include "radlab/scene/mgf_reader.h"
+#include "radlab/scene/scene_loader.h"
+#include "radlab/scene/validate.h"
 #include "tests/test_support.h"
 
 namespace radlab {
@@ -525,8 +525,8 @@ void PrintTo(const SharedScene& scene, std::ostream* out) {
 
 // The counts docs/scenes.md states (deterministic: default tessellation, 16 segments around).
 // Polygons and emitters are after validation, which also removes coincident same-facing
-// overlaps (scene/overlap.h): hosp.mgf's second copy of the furniture goes, graz.mgf gains the
-// pieces of polygons cut around an overlap.
+// overlaps (src/radlab/scene/overlap.h): hosp.mgf's second copy of the furniture goes, graz.mgf
+// gains the pieces of polygons cut around an overlap.
 const SharedScene kShared[] = {
     {"cube.mgf", 66, 66, 0, 0, 2, 9},
     {"office2/office2.mgf", 422, 430, 0, 8, 1, 50},

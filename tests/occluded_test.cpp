@@ -1,4 +1,4 @@
-// Occluded form factors by shadow clipping (formfactor/visible_polygon.h, `exact` with
+// Occluded form factors by shadow clipping (src/radlab/formfactor/visible_polygon.h, `exact` with
 // visibility=clip): closed forms where the visible part is a rectangle, full occlusion, the
 // unoccluded case, convergence as the tolerance falls, and reciprocity of two independent
 // integrations (over i with shadows on j, over j with shadows on i).
@@ -9,12 +9,12 @@
 #include <numbers>
 #include <vector>
 
-#include "core/param_bag.h"
-#include "formfactor/exact.h"
-#include "formfactor/point_polygon.h"
-#include "formfactor/symmetric_build.h"
-#include "formfactor/visible_polygon.h"
-#include "scene/mesh.h"
+#include "radlab/core/param_bag.h"
+#include "radlab/formfactor/exact.h"
+#include "radlab/formfactor/point_polygon.h"
+#include "radlab/formfactor/symmetric_build.h"
+#include "radlab/formfactor/visible_polygon.h"
+#include "radlab/scene/mesh.h"
 #include "tests/test_support.h"
 
 namespace radlab {

@@ -22,15 +22,15 @@
 #include <cstdio>
 #include <map>
 
-#include "core/error.h"
-#include "formfactor/hemicube.h"
-#include "formfactor/raycast.h"
-#include "metrics/error_metrics.h"
-#include "scene/builtin_scenes.h"
-#include "scene/validate.h"
-#include "solvers/interleaved.h"
-#include "solvers/reference.h"
-#include "solvers/registry.h"
+#include "radlab/core/error.h"
+#include "radlab/formfactor/hemicube.h"
+#include "radlab/formfactor/raycast.h"
+#include "radlab/metrics/error_metrics.h"
+#include "radlab/scene/builtin_scenes.h"
+#include "radlab/scene/validate.h"
+#include "radlab/solvers/interleaved.h"
+#include "radlab/solvers/reference.h"
+#include "radlab/solvers/registry.h"
 #include "tests/solver_support.h"
 
 namespace radlab {
@@ -208,9 +208,9 @@ INSTANTIATE_TEST_SUITE_P(Orderings, GaussSeidelAheadOfJacobi,
 
 // The certified bound at every checkpoint of every solver: ||B - B*||_inf <= r ||(I-J)^-1||_inf
 // with r = ||E - (I-J) B||_inf (rounding included), the bound radlab prints at every checkpoint
-// (experiments/runner.cpp). It is a theorem for any B, so it must hold for every solver at every
-// step, on stiff and extreme cases and on non-reciprocal matrices; the test measures the true
-// distance to the reference (itself within reference.bound_inf of B*).
+// (src/radlab/experiments/runner.cpp). It is a theorem for any B, so it must hold for every solver
+// at every step, on stiff and extreme cases and on non-reciprocal matrices; the test measures the
+// true distance to the reference (itself within reference.bound_inf of B*).
 struct BoundCase {
   std::string scene;
   int subdiv;

@@ -1,7 +1,7 @@
 // The built-in reconstructions of the papers' scenes (builtin:office, builtin:room,
 // builtin:computer-room): element counts at the documented mesh near the papers', closed
 // enclosures whose every polygon faces the free space, an emitter and a camera each.
-#include "scene/paper_scenes.h"
+#include "radlab/scene/paper_scenes.h"
 
 #include <gtest/gtest.h>
 
@@ -11,11 +11,11 @@
 #include <numbers>
 #include <random>
 
-#include "core/error.h"
-#include "scene/builtin_scenes.h"
-#include "scene/geometry.h"
-#include "scene/mesh.h"
-#include "scene/scene_loader.h"
+#include "radlab/core/error.h"
+#include "radlab/scene/builtin_scenes.h"
+#include "radlab/scene/geometry.h"
+#include "radlab/scene/mesh.h"
+#include "radlab/scene/scene_loader.h"
 
 namespace radlab {
 namespace {

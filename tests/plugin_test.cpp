@@ -1,5 +1,5 @@
-// Loading solver plugins (solvers/plugin_loader.h): every way a plugin can be wrong gives a
-// message naming the file and exit 2 (the path) or 3 (the file), never a crash. The working
+// Loading solver plugins (src/radlab/solvers/plugin_loader.h): every way a plugin can be wrong
+// gives a message naming the file and exit 2 (the path) or 3 (the file), never a crash. The working
 // plugin (examples/southwell_plugin, built against the installed package) is exercised by the
 // ctest plugin.installed_package (tests/PluginPackageTest.cmake).
 #include <gtest/gtest.h>

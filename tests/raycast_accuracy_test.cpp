@@ -6,12 +6,12 @@
 #include <cmath>
 #include <glm/geometric.hpp>
 
-#include "formfactor/matrix.h"
-#include "formfactor/point_polygon.h"
-#include "formfactor/raycast.h"
-#include "formfactor/sampling.h"
-#include "scene/mesh.h"
-#include "scene/scene_loader.h"
+#include "radlab/formfactor/matrix.h"
+#include "radlab/formfactor/point_polygon.h"
+#include "radlab/formfactor/raycast.h"
+#include "radlab/formfactor/sampling.h"
+#include "radlab/scene/mesh.h"
+#include "radlab/scene/scene_loader.h"
 #include "tests/test_support.h"
 
 namespace radlab {

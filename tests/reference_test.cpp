@@ -1,6 +1,6 @@
 // The certified reference: closed-form cases, the furnace identity, the certificate checked
 // against an independent solve, and the refusal of systems with no finite solution.
-#include "solvers/reference.h"
+#include "radlab/solvers/reference.h"
 
 #include <gtest/gtest.h>
 
@@ -8,11 +8,11 @@
 #include <filesystem>
 #include <fstream>
 
-#include "core/error.h"
-#include "experiments/problem.h"
-#include "formfactor/raycast.h"
-#include "scene/builtin_scenes.h"
-#include "scene/validate.h"
+#include "radlab/core/error.h"
+#include "radlab/experiments/problem.h"
+#include "radlab/formfactor/raycast.h"
+#include "radlab/scene/builtin_scenes.h"
+#include "radlab/scene/validate.h"
 #include "tests/test_support.h"
 
 namespace radlab {

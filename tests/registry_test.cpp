@@ -2,7 +2,7 @@
 // prints are the ones the options structs use, every key an options struct reads is listed (and
 // nothing else), the kind in SolverInfo is true of the solver, and docs/solvers.md's table names
 // every solver with every parameter.
-#include "solvers/registry.h"
+#include "radlab/solvers/registry.h"
 
 #include <gtest/gtest.h>
 
@@ -10,10 +10,10 @@
 #include <set>
 #include <sstream>
 
-#include "core/text.h"
-#include "formfactor/raycast.h"
-#include "scene/builtin_scenes.h"
-#include "scene/validate.h"
+#include "radlab/core/text.h"
+#include "radlab/formfactor/raycast.h"
+#include "radlab/scene/builtin_scenes.h"
+#include "radlab/scene/validate.h"
 #include "tests/test_support.h"
 
 namespace radlab {

@@ -18,16 +18,16 @@
 #include <sstream>
 #include <thread>
 
-#include "core/csv_reader.h"
-#include "core/error.h"
-#include "core/file_lock.h"
-#include "core/json_reader.h"
-#include "core/output_file.h"
-#include "experiments/experiment_spec.h"
-#include "experiments/merge.h"
-#include "experiments/summary.h"
-#include "experiments/sweep.h"
-#include "formfactor/matrix_cache.h"
+#include "radlab/core/csv_reader.h"
+#include "radlab/core/error.h"
+#include "radlab/core/file_lock.h"
+#include "radlab/core/json_reader.h"
+#include "radlab/core/output_file.h"
+#include "radlab/experiments/experiment_spec.h"
+#include "radlab/experiments/merge.h"
+#include "radlab/experiments/summary.h"
+#include "radlab/experiments/sweep.h"
+#include "radlab/formfactor/matrix_cache.h"
 #include "tests/experiment_fixtures.h"
 #include "tests/test_support.h"
 

@@ -13,19 +13,19 @@
 #include <filesystem>
 #include <numbers>
 
-#include "core/error.h"
-#include "core/limits.h"
-#include "core/param_bag.h"
-#include "experiments/experiment_spec.h"
-#include "experiments/problem.h"
-#include "experiments/sweep.h"
-#include "formfactor/form_factor_method.h"
-#include "scene/builtin_scenes.h"
-#include "scene/mesh.h"
-#include "scene/mgf_reader.h"
-#include "scene/obj_reader.h"
-#include "scene/scene_loader.h"
-#include "scene/validate.h"
+#include "radlab/core/error.h"
+#include "radlab/core/limits.h"
+#include "radlab/core/param_bag.h"
+#include "radlab/experiments/experiment_spec.h"
+#include "radlab/experiments/problem.h"
+#include "radlab/experiments/sweep.h"
+#include "radlab/formfactor/form_factor_method.h"
+#include "radlab/scene/builtin_scenes.h"
+#include "radlab/scene/mesh.h"
+#include "radlab/scene/mgf_reader.h"
+#include "radlab/scene/obj_reader.h"
+#include "radlab/scene/scene_loader.h"
+#include "radlab/scene/validate.h"
 #include "tests/test_support.h"
 
 namespace radlab {

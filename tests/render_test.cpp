@@ -17,15 +17,15 @@
 #include <stdexcept>
 #include <tuple>
 
-#include "core/error.h"
-#include "formfactor/embree_scene.h"
-#include "render/exr_io.h"
-#include "render/false_colour.h"
-#include "render/interpolation.h"
-#include "render/png_io.h"
-#include "render/renderer.h"
-#include "scene/builtin_scenes.h"
-#include "scene/validate.h"
+#include "radlab/core/error.h"
+#include "radlab/formfactor/embree_scene.h"
+#include "radlab/render/exr_io.h"
+#include "radlab/render/false_colour.h"
+#include "radlab/render/interpolation.h"
+#include "radlab/render/png_io.h"
+#include "radlab/render/renderer.h"
+#include "radlab/scene/builtin_scenes.h"
+#include "radlab/scene/validate.h"
 #include "tests/test_support.h"
 
 namespace radlab {

@@ -6,13 +6,13 @@
 #include <glm/geometric.hpp>
 #include <numeric>
 
-#include "core/error.h"
-#include "scene/builtin_scenes.h"
-#include "scene/geometry.h"
-#include "scene/mesh.h"
-#include "scene/obj_reader.h"
-#include "scene/scene_loader.h"
-#include "scene/validate.h"
+#include "radlab/core/error.h"
+#include "radlab/scene/builtin_scenes.h"
+#include "radlab/scene/geometry.h"
+#include "radlab/scene/mesh.h"
+#include "radlab/scene/obj_reader.h"
+#include "radlab/scene/scene_loader.h"
+#include "radlab/scene/validate.h"
 #include "tests/test_support.h"
 
 namespace radlab {

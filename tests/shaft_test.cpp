@@ -1,8 +1,8 @@
-// Shaft culling's polygon-pair tier (formfactor/shaft.h): it never proves fewer pairs clear than
-// the element-level test alone, what it proves clear is clear for traced rays, the decision is
-// symmetric, and the per-thread cache of polygon pairs changes nothing but the cost.
+// Shaft culling's polygon-pair tier (src/radlab/formfactor/shaft.h): it never proves fewer pairs
+// clear than the element-level test alone, what it proves clear is clear for traced rays, the
+// decision is symmetric, and the per-thread cache of polygon pairs changes nothing but the cost.
 // (tests/formfactor_test.cpp holds the element-level ShaftCulling tests.)
-#include "formfactor/shaft.h"
+#include "radlab/formfactor/shaft.h"
 
 #include <gtest/gtest.h>
 
@@ -15,12 +15,12 @@
 #include <utility>
 #include <vector>
 
-#include "formfactor/raycast.h"
-#include "formfactor/visibility.h"
-#include "scene/builtin_scenes.h"
-#include "scene/geometry.h"
-#include "scene/scene_loader.h"
-#include "scene/validate.h"
+#include "radlab/formfactor/raycast.h"
+#include "radlab/formfactor/visibility.h"
+#include "radlab/scene/builtin_scenes.h"
+#include "radlab/scene/geometry.h"
+#include "radlab/scene/scene_loader.h"
+#include "radlab/scene/validate.h"
 #include "tests/test_support.h"
 
 namespace radlab {

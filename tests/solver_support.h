@@ -13,11 +13,11 @@
 #include <string>
 #include <vector>
 
-#include "formfactor/raycast.h"
-#include "scene/builtin_scenes.h"
-#include "scene/validate.h"
-#include "solvers/reference.h"
-#include "solvers/registry.h"
+#include "radlab/formfactor/raycast.h"
+#include "radlab/scene/builtin_scenes.h"
+#include "radlab/scene/validate.h"
+#include "radlab/solvers/reference.h"
+#include "radlab/solvers/registry.h"
 
 namespace radlab::testing {
 struct Setup {

@@ -1,4 +1,4 @@
-// The stability scenes (scene/stability_scenes.h): each is the extreme its documentation
+// The stability scenes (src/radlab/scene/stability_scenes.h): each is the extreme its documentation
 // promises — the area ratio, the sliver aspect, the lamp's size and emission, the gap, the
 // coplanar overlap — and loads without repairs; bad parameters are usage errors naming the key.
 #include <gtest/gtest.h>
@@ -7,10 +7,10 @@
 #include <cmath>
 #include <glm/geometric.hpp>
 
-#include "core/error.h"
-#include "scene/builtin_scenes.h"
-#include "scene/geometry.h"
-#include "scene/validate.h"
+#include "radlab/core/error.h"
+#include "radlab/scene/builtin_scenes.h"
+#include "radlab/scene/geometry.h"
+#include "radlab/scene/validate.h"
 #include "tests/test_support.h"
 
 namespace radlab {

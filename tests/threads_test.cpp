@@ -1,7 +1,8 @@
 // Issue 13 target 4, "both cores everywhere, the same bits whatever the thread count": on-the-fly
-// rows split over receivers (formfactor/parallel_row.h), the reference's blocked parallel LU
-// (solvers/dense_lu.h) and the --threads option. Each parallel result is compared bit for bit on
-// 1, 2 and 4 threads (an explicit task arena, so 4 threads run even on a 2-core machine).
+// rows split over receivers (src/radlab/formfactor/parallel_row.h), the reference's blocked
+// parallel LU (src/radlab/solvers/dense_lu.h) and the --threads option. Each parallel result is
+// compared bit for bit on 1, 2 and 4 threads (an explicit task arena, so 4 threads run even on a
+// 2-core machine).
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 #include <tbb/task_arena.h>
@@ -18,16 +19,16 @@
 #include <sstream>
 #include <thread>
 
-#include "core/random.h"
-#include "formfactor/form_factor_method.h"
-#include "formfactor/matrix.h"
-#include "formfactor/parallel_row.h"
-#include "scene/builtin_scenes.h"
-#include "scene/validate.h"
-#include "solvers/dense_lu.h"
-#include "solvers/kernels.h"
-#include "solvers/registry.h"
-#include "solvers/system.h"
+#include "radlab/core/random.h"
+#include "radlab/formfactor/form_factor_method.h"
+#include "radlab/formfactor/matrix.h"
+#include "radlab/formfactor/parallel_row.h"
+#include "radlab/scene/builtin_scenes.h"
+#include "radlab/scene/validate.h"
+#include "radlab/solvers/dense_lu.h"
+#include "radlab/solvers/kernels.h"
+#include "radlab/solvers/registry.h"
+#include "radlab/solvers/system.h"
 #include "tests/test_support.h"
 
 namespace radlab {

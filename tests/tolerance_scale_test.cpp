@@ -8,11 +8,11 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/error.h"
-#include "core/param_bag.h"
-#include "experiments/problem.h"
-#include "experiments/runner.h"
-#include "solvers/registry.h"
+#include "radlab/core/error.h"
+#include "radlab/core/param_bag.h"
+#include "radlab/experiments/problem.h"
+#include "radlab/experiments/runner.h"
+#include "radlab/solvers/registry.h"
 #include "test_support.h"
 
 namespace radlab {

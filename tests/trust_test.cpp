@@ -14,13 +14,13 @@
 #include <fstream>
 #include <numbers>
 
-#include "core/csv.h"
-#include "core/error.h"
-#include "core/param_bag.h"
-#include "experiments/problem.h"
-#include "experiments/runner.h"
-#include "experiments/summary.h"
-#include "solvers/registry.h"
+#include "radlab/core/csv.h"
+#include "radlab/core/error.h"
+#include "radlab/core/param_bag.h"
+#include "radlab/experiments/problem.h"
+#include "radlab/experiments/runner.h"
+#include "radlab/experiments/summary.h"
+#include "radlab/solvers/registry.h"
 #include "test_support.h"
 
 namespace radlab {

@@ -1,7 +1,7 @@
-// Cohen et al. 1988's two levels (solvers/patches.h): patches shoot to elements, elements gather
-// over patches, and both solve the one system K whose certified reference the metrics use; one
-// element per patch is the one-level system bit for bit; a patch shot's books; patches from a
-// coarser mesh; Gouraud display of a linear field; bad parameters.
+// Cohen et al. 1988's two levels (src/radlab/solvers/patches.h): patches shoot to elements,
+// elements gather over patches, and both solve the one system K whose certified reference the
+// metrics use; one element per patch is the one-level system bit for bit; a patch shot's books;
+// patches from a coarser mesh; Gouraud display of a linear field; bad parameters.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -10,23 +10,23 @@
 #include <cstring>
 #include <limits>
 
-#include "core/error.h"
-#include "core/limits.h"
-#include "experiments/experiment_spec.h"
-#include "experiments/problem.h"
-#include "formfactor/hemicube.h"
-#include "formfactor/point_polygon.h"
-#include "formfactor/raycast.h"
-#include "metrics/error_metrics.h"
-#include "render/interpolation.h"
-#include "scene/builtin_scenes.h"
-#include "scene/validate.h"
-#include "solvers/patch_rows.h"
-#include "solvers/patches.h"
-#include "solvers/reference.h"
-#include "solvers/registry.h"
-#include "solvers/shooting_core.h"
-#include "solvers/two_level_reference.h"
+#include "radlab/core/error.h"
+#include "radlab/core/limits.h"
+#include "radlab/experiments/experiment_spec.h"
+#include "radlab/experiments/problem.h"
+#include "radlab/formfactor/hemicube.h"
+#include "radlab/formfactor/point_polygon.h"
+#include "radlab/formfactor/raycast.h"
+#include "radlab/metrics/error_metrics.h"
+#include "radlab/render/interpolation.h"
+#include "radlab/scene/builtin_scenes.h"
+#include "radlab/scene/validate.h"
+#include "radlab/solvers/patch_rows.h"
+#include "radlab/solvers/patches.h"
+#include "radlab/solvers/reference.h"
+#include "radlab/solvers/registry.h"
+#include "radlab/solvers/shooting_core.h"
+#include "radlab/solvers/two_level_reference.h"
 #include "tests/test_support.h"
 
 namespace radlab {
@@ -331,8 +331,8 @@ TEST(TwoLevel, InterleavedRefusesPatchShooters) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Patch rows from the method (solvers/patch_rows.h) and the rank-P reference
-// (solvers/two_level_reference.h).
+// Patch rows from the method (src/radlab/solvers/patch_rows.h) and the rank-P reference
+// (src/radlab/solvers/two_level_reference.h).
 
 TEST(PatchRows, TheCentreHemicubeOfAOneElementPatchIsItsElementRow) {
   // One element per patch: the patch's centre and frame are the element's, so the patch
@@ -509,7 +509,7 @@ TEST(TwoLevel, AllMeansTheSolversThatRunOnTheProblem) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Adaptive subdivision (solvers/two_level_adaptive.cpp).
+// Adaptive subdivision (src/radlab/solvers/two_level_adaptive.cpp).
 
 // A 2 m x 1 m floor (reflectance 0.5) under a 20 m x 20 m emitter at 0.5 m, with a blind at
 // 0.05 m over x in [1, 2.5]: the floor is lit almost uniformly for x < 1 (the emitter fills its

@@ -1,6 +1,6 @@
 // Visibility sampling (sampling.h) and the visibility fraction's shortcuts (visibility.h): the
 // shortcuts change the cost, never V.
-#include "formfactor/visibility.h"
+#include "radlab/formfactor/visibility.h"
 
 #include <gtest/gtest.h>
 
@@ -9,11 +9,11 @@
 #include <glm/geometric.hpp>
 #include <vector>
 
-#include "formfactor/matrix.h"
-#include "formfactor/raycast.h"
-#include "formfactor/sampling.h"
-#include "scene/builtin_scenes.h"
-#include "scene/validate.h"
+#include "radlab/formfactor/matrix.h"
+#include "radlab/formfactor/raycast.h"
+#include "radlab/formfactor/sampling.h"
+#include "radlab/scene/builtin_scenes.h"
+#include "radlab/scene/validate.h"
 
 namespace radlab {
 namespace {

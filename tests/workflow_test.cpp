@@ -21,8 +21,8 @@
 #include <sstream>
 #include <thread>
 
-#include "core/csv_reader.h"
-#include "experiments/summary.h"
+#include "radlab/core/csv_reader.h"
+#include "radlab/experiments/summary.h"
 #include "tests/experiment_fixtures.h"
 #include "tests/test_support.h"
 

@@ -1,0 +1,288 @@
+// `radlab prepare EXPERIMENT.toml [--problem K] [--record FILE] [--plan]`: fills the cache with
+// what the experiment's runs share, before any run starts.
+//
+// A sweep's runs share one form-factor matrix and one certified reference per scene x mesh x
+// form-factor method (x seed): its "problems" (experiment_spec.h plan_sweep). `radlab run`
+// prepares a problem when its first run needs it, so N shards started at once on an empty cache
+// would each build the same matrix. `prepare` builds them once, up front, through the same code
+// and the same cache as `run` (problem.h prepare_problem; $RADLAB_CACHE_DIR or ~/.cache/radlab),
+// so a shard afterwards only loads. The workflow (workflow/Snakefile) runs one `prepare --problem
+// K` per problem, then the shards.
+//
+// --plan builds no matrix: it loads each scene and meshes it, and prints as JSON the problems
+// and runs with rough estimates of memory and time (below) that the workflow turns into
+// scheduler resources. --record FILE writes, once every selected problem is prepared, a JSON
+// record naming the cache files (written to a temporary name and renamed, so a record exists
+// only for a finished preparation).
+//
+// Estimates (upper-bound-minded, machine-dependent, for a scheduler's requests, not for papers):
+//   memory  the dense matrix n^2 x 8 bytes (and its float rounding, 4 more, with float rows),
+//           plus the reference's dense n x n double LU, plus
+//           256 MB for the program, scene and vectors; a shard that finds the cache empty
+//           recomputes both, so shards are given the same figure.
+//   time    prepare: n^2 pairs at 1 us each (form factors with visibility) + n^3/3 LU flops at
+//           1 ns each. A run: (rows x n + checkpoints x n^2) x channels multiply-adds at 1 ns,
+//           plus the budget's seconds; rows is the budget's rows or steps (a step reads about
+//           one row), or 1000 sweeps (the runner's cap) under a tolerance alone.
+//   Two levels (P patches): P x n patch rows (and their float rounding) instead of the matrix,
+//           the P x P reduced LU; P (centre) or n (mean) rows at n us each + P^3/3 ns.
+//   The workflow multiplies the times by a configurable safety factor.
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <optional>
+
+#include "cli/cli_common.h"
+#include "radlab/core/error.h"
+#include "radlab/core/json.h"
+#include "radlab/core/log.h"
+#include "radlab/experiments/experiment_spec.h"
+#include "radlab/experiments/sweep.h"
+#include "radlab/formfactor/matrix_cache.h"
+#include "radlab/scene/scene_loader.h"
+
+namespace radlab::cli {
+namespace {
+
+struct ProblemEstimate {
+  size_t elements = 0;
+  int channels = 0;
+  double matrix_bytes = 0, memory_bytes = 0, prepare_seconds = 0;
+  std::string error;  // the scene could not be loaded or meshed
+};
+
+ProblemEstimate estimate_problem(const PlannedProblem& planned) {
+  ProblemEstimate e;
+  double patches = 0;
+  e.memory_bytes = 256e6;  // the program alone; a problem that fails to load needs no more
+  try {
+    LoadedScene loaded = load_scene(planned.spec.scene);
+    const Mesh mesh = build_mesh(loaded.scene, planned.spec.mesh);
+    e.elements = mesh.size();
+    e.channels = loaded.scene.is_grey() ? 1 : 3;
+    if (planned.spec.patches.two_level())
+      patches = double(make_patches(loaded.scene, mesh, planned.spec.patches).size());
+  } catch (const Error& error) {
+    e.error = error.what();
+    return e;
+  }
+  const double n = double(e.elements);
+  if (patches > 0) {  // two levels (docs/solvers.md): P x n patch rows, no n x n matrix
+    const bool float_rows = planned.spec.precision == Precision::kFloat;
+    const bool centre = planned.spec.patches.resolved_rows(planned.spec.ff_method) == "centre";
+    e.matrix_bytes = patches * n * (float_rows ? 4.0 + 8.0 : 8.0);
+    e.memory_bytes = e.matrix_bytes + 8.0 * patches * (patches + n) + 256e6;
+    e.prepare_seconds =
+        (centre ? patches : n) * n * 1e-6 + patches * patches * patches / 3.0 * 1e-9;
+    return e;
+  }
+  // The matrix the solvers read, plus (with float storage) the double matrix the reference is
+  // certified against, which prepare_problem keeps beside it.
+  const bool float_rows = planned.spec.precision == Precision::kFloat;
+  e.matrix_bytes = n * n * (float_rows ? 4.0 + 8.0 : 8.0);
+  e.memory_bytes = e.matrix_bytes + (planned.spec.need_reference ? 8.0 * n * n : 0.0) + 256e6;
+  e.prepare_seconds = n * n * 1e-6 + (planned.spec.need_reference ? n * n * n / 3.0 * 1e-9 : 0.0);
+  return e;
+}
+
+// Rough seconds of one run (see the file comment).
+double estimate_run_seconds(const ExperimentSpec& spec, const ProblemEstimate& p) {
+  const double n = double(p.elements);
+  if (n == 0) return 0.0;
+  const Budget& b = spec.budget;
+  double rows = b.rows ? double(*b.rows) : b.steps ? double(*b.steps) : 1000.0 * n;
+  if (b.empty()) rows = 3.0 * n;  // the runner's default: three sweeps' worth of steps
+  const double growth = std::max(spec.schedule.growth, 1.01);
+  const double checkpoints = double(spec.schedule.every_step_until) + 1.0 +
+                             std::log(std::max(rows, 1.0)) / std::log(growth) +
+                             double(spec.schedule.extra.size() + spec.images.steps.size()) + 16.0 +
+                             std::min(rows / n, 1000.0);
+  const double seconds = (rows * n + checkpoints * n * n) * double(p.channels) * 1e-9;
+  return seconds + (b.seconds ? *b.seconds : 0.0);
+}
+
+void print_plan(const ExperimentSpec& spec, const SweepPlan& plan) {
+  std::vector<ProblemEstimate> estimates;
+  for (size_t i = 0; i < plan.problems.size(); ++i) {
+    log::info("[" + std::to_string(i + 1) + "/" + std::to_string(plan.problems.size()) +
+              "] meshing " + plan.problems[i].label);
+    estimates.push_back(estimate_problem(plan.problems[i]));
+  }
+  JsonWriter json;
+  json.begin_object();
+  json.field("experiment", spec.path);
+  json.field("name", spec.name);
+  json.field("runs_total", plan.runs.size());
+  json.key("problems").begin_array();
+  for (size_t i = 0; i < plan.problems.size(); ++i) {
+    const ProblemEstimate& e = estimates[i];
+    json.begin_object();
+    json.field("index", i);
+    json.field("label", plan.problems[i].label);
+    json.field("scene", plan.problems[i].spec.scene);
+    json.field("elements", e.elements);
+    json.field("channels", e.channels);
+    json.field("matrix_bytes", e.matrix_bytes);
+    json.field("memory_mb", std::ceil(e.memory_bytes / 1e6));
+    json.field("prepare_seconds", e.prepare_seconds);
+    if (!e.error.empty()) json.field("error", e.error);
+    json.end_object();
+  }
+  json.end_array();
+  json.key("runs").begin_array();
+  for (const PlannedRun& run : plan.runs) {
+    json.begin_object();
+    json.field("index", run.index);
+    json.field("problem", run.problem);
+    json.field("run_id", run.run_id);
+    json.field("seconds", estimate_run_seconds(spec, estimates[run.problem]));
+    json.end_object();
+  }
+  json.end_array();
+  json.end_object();
+  std::printf("%s\n", json.str().c_str());
+}
+
+struct Prepared {
+  size_t index = 0;
+  std::string label, matrix_file, reference_file, reference;
+  size_t elements = 0;
+  bool matrix_from_cache = false;
+  double seconds = 0;
+};
+
+// Writes `text` to `path` through a temporary sibling and a rename, so `path` is never partial.
+void write_atomically(const std::string& path, const std::string& text) {
+  ensure_parent_folder(path);
+  const std::string temp = path + ".tmp." + std::to_string(::getpid());
+  {
+    std::ofstream out(temp);
+    out << text;
+    out.close();
+    if (!out) {
+      std::error_code ignored;
+      std::filesystem::remove(temp, ignored);
+      throw InputError(path + ": cannot write file");
+    }
+  }
+  std::error_code ec;
+  std::filesystem::rename(temp, path, ec);
+  if (ec) {
+    std::filesystem::remove(temp, ec);
+    throw InputError(path + ": cannot write file (" + ec.message() + ")");
+  }
+}
+
+void write_record(const std::string& path, const ExperimentSpec& spec,
+                  const std::vector<Prepared>& prepared) {
+  JsonWriter json;
+  json.begin_object();
+  json.field("experiment", spec.path);
+  json.field("name", spec.name);
+  json.field("cache", default_cache_dir().string());
+  json.key("problems").begin_array();
+  for (const Prepared& p : prepared) {
+    json.begin_object();
+    json.field("index", p.index);
+    json.field("label", p.label);
+    json.field("elements", p.elements);
+    json.field("matrix_file", p.matrix_file);
+    json.field("matrix_from_cache", p.matrix_from_cache);
+    json.field("reference_file", p.reference_file);
+    json.field("reference", p.reference);
+    json.field("seconds", p.seconds);
+    json.end_object();
+  }
+  json.end_array();
+  json.end_object();
+  write_atomically(path, json.str() + "\n");
+}
+
+}  // namespace
+
+void add_prepare_command(CLI::App& app) {
+  auto* command = app.add_subcommand(
+      "prepare",
+      "build an experiment's form-factor matrices and certified references into the cache, once "
+      "per scene/mesh/method, before its runs (or shards) start");
+  struct Options {
+    std::string file, record;
+    std::vector<size_t> problems;
+    bool plan = false;
+  };
+  auto o = std::make_shared<Options>();
+  command->add_option("experiment", o->file, "experiment file (experiments/*.toml)")->required();
+  command->add_option("--problem", o->problems,
+                      "prepare only problem K (0-based, as listed by --plan; repeatable)");
+  command->add_option("--record", o->record,
+                      "write a JSON record of the prepared problems and their cache files here "
+                      "(only when all succeeded)");
+  command->add_flag("--plan", o->plan,
+                    "build nothing: print the problems and runs as JSON with estimates of memory "
+                    "and time (for a scheduler)");
+  command->callback([o]() {
+    const ExperimentSpec spec = read_experiment(o->file);
+    const SweepPlan plan = plan_sweep(spec);
+    if (o->plan) {
+      print_plan(spec, plan);
+      return;
+    }
+    std::vector<size_t> selected = o->problems;
+    if (selected.empty())
+      for (size_t i = 0; i < plan.problems.size(); ++i) selected.push_back(i);
+    for (size_t k : selected)
+      if (k >= plan.problems.size())
+        throw UsageError("--problem " + std::to_string(k) + ": " + spec.path + " has " +
+                         std::to_string(plan.problems.size()) + " problems (0 to " +
+                         std::to_string(plan.problems.size() - 1) + ")");
+    log::info("cache: " + default_cache_dir().string());
+
+    std::vector<Prepared> prepared;
+    std::vector<RunFailure> failures;  // one per problem that could not be prepared
+    for (size_t k = 0; k < selected.size(); ++k) {
+      const PlannedProblem& planned = plan.problems[selected[k]];
+      log::info("[" + std::to_string(k + 1) + "/" + std::to_string(selected.size()) + "] problem " +
+                std::to_string(selected[k]) + ": " + planned.label);
+      const auto start = std::chrono::steady_clock::now();
+      try {
+        const std::unique_ptr<Problem> problem = prepare_problem(planned.spec);
+        Prepared p;
+        p.index = selected[k];
+        p.label = planned.label;
+        p.elements = problem->mesh.size();
+        p.matrix_file = problem->matrix_cache_file;
+        p.reference_file = problem->reference_cache_file;
+        p.matrix_from_cache = problem->build.cached;
+        p.reference = problem->reference ? problem->reference->summary() : "";
+        p.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        prepared.push_back(std::move(p));
+      } catch (const Error& e) {
+        log::info("cannot prepare " + planned.label + ": " + e.what());
+        failures.push_back({selected[k], planned.label, e.code(), e.what()});
+      } catch (const std::bad_alloc&) {
+        log::info("cannot prepare " + planned.label + ": out of memory");
+        failures.push_back({selected[k], planned.label, ExitCode::kNumerical,
+                            planned.label + ": out of memory (a coarser mesh needs less)"});
+      }
+    }
+    std::printf("prepared %zu of %zu problems in %s\n", prepared.size(), selected.size(),
+                default_cache_dir().string().c_str());
+    if (!failures.empty()) {
+      SweepReport report;
+      report.failures = failures;
+      std::string message = std::to_string(failures.size()) + " of " +
+                            std::to_string(selected.size()) + " problems could not be prepared:";
+      for (const RunFailure& f : failures) message += "\n  " + f.run_id + ": " + f.message;
+      throw Error(ExitCode(report.exit_code()), message);
+    }
+    if (!o->record.empty()) write_record(o->record, spec, prepared);
+  });
+}
+
+}  // namespace radlab::cli

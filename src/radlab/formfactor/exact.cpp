@@ -1,0 +1,200 @@
+#include "radlab/formfactor/exact.h"
+
+#include <cstdio>
+
+#include "radlab/core/error.h"
+#include "radlab/core/text.h"
+#include "radlab/formfactor/occlusion.h"
+#include "radlab/formfactor/polygon_integral.h"
+#include "radlab/formfactor/raycast.h"
+#include "radlab/formfactor/shaft.h"
+#include "radlab/formfactor/visible_polygon.h"
+#include "radlab/scene/geometry.h"
+
+namespace radlab {
+
+ExactOptions ExactOptions::from(ParamBag& bag) {
+  ExactOptions o;
+  o.tolerance = bag.get_double("tolerance", o.tolerance);
+  o.max_depth = int(bag.get_int("max_depth", o.max_depth, kIntMin, kIntMax));
+  const std::string visibility = bag.get_choice("visibility", "refuse", {"refuse", "rays", "clip"});
+  o.visibility_rays = visibility == "rays";
+  o.visibility_clip = visibility == "clip";
+  if (o.visibility_rays) {
+    o.rays = int(bag.get_int("rays", o.rays, kIntMin, kIntMax));
+    o.seed = uint64_t(bag.get_int("seed", 0, 0, kInt64Max));
+  } else if (bag.has("rays") || bag.has("seed")) {
+    throw UsageError(
+        "exact: 'rays' and 'seed' apply only with visibility=rays (visibility=clip "
+        "samples nothing)");
+  }
+  o.validate();
+  return o;
+}
+
+void ExactOptions::validate() const {
+  if (!(tolerance >= 1e-15 && tolerance < 1.0))
+    throw UsageError("exact: tolerance must lie in [1e-15,1), got " +
+                     text::format_double(tolerance));
+  if (max_depth < 1 || max_depth > 24)
+    throw UsageError("exact: max_depth must lie in [1,24], got " + std::to_string(max_depth));
+  if (visibility_rays && visibility_clip)
+    throw UsageError("exact: visibility is either rays or clip, not both");
+  if (rays < 1 || rays > 4096)
+    throw UsageError("exact: rays must lie in [1,4096], got " + std::to_string(rays));
+}
+
+std::string ExactOptions::canonical() const {
+  char buffer[200];
+  if (visibility_rays)
+    std::snprintf(buffer, sizeof buffer,
+                  "max_depth=%d,rays=%d,seed=%llu,tolerance=%.6g,visibility=rays", max_depth, rays,
+                  static_cast<unsigned long long>(seed), tolerance);
+  else
+    std::snprintf(buffer, sizeof buffer, "max_depth=%d,tolerance=%.6g,visibility=%s", max_depth,
+                  tolerance, visibility_clip ? "clip" : "refuse");
+  return buffer;
+}
+
+ExactFormFactors::ExactFormFactors(const Scene& scene, const Mesh& mesh, ExactOptions options)
+    : scene_(scene), mesh_(mesh), options_((options.validate(), options)) {
+  plane_epsilon_ = plane_epsilon(mesh);
+  if (is_convex_enclosure(scene)) {
+    nothing_occludes_ = true;
+    return;
+  }
+  if (options_.visibility_rays) {
+    visibility_ = std::make_unique<Visibility>(scene, mesh, options_.rays, options_.seed, true);
+    return;
+  }
+  if (options_.visibility_clip) {
+    shafts_ = std::make_unique<ShaftCuller>(scene, mesh, plane_epsilon_);
+    occluder_normal_.reserve(scene.polygons.size());
+    for (const Polygon& p : scene.polygons)
+      occluder_normal_.push_back(geometry::unit_normal(p.vertices));
+    return;
+  }
+  // Every facing pair must have an empty shaft; the first that does not is named.
+  ShaftCuller shafts(scene, mesh, plane_epsilon_);
+  for (size_t i = 0; i < mesh.size(); ++i)
+    for (size_t j = i + 1; j < mesh.size(); ++j) {
+      if (!pair_faces(mesh, i, j, plane_epsilon_)) continue;
+      const int64_t blocker = shafts.first_blocker(i, j);
+      if (blocker < 0) continue;
+      auto element = [&](size_t e) {
+        return std::to_string(e) + " (" + scene.polygons[mesh.polygon[e]].origin + ")";
+      };
+      throw InputError(
+          "form factors 'exact': the scene can occlude (it is not a convex enclosure, and "
+          "polygon " +
+          std::to_string(blocker) + " (" + scene.polygons[size_t(blocker)].origin +
+          ") may block elements " + element(i) + " and " + element(j) +
+          "); the method computes unoccluded form factors only. Use --ff-set visibility=rays to "
+          "multiply by a raycast visibility fraction, or another method (raycast, hemicube)");
+    }
+  nothing_occludes_ = true;
+}
+
+ExactFormFactors::~ExactFormFactors() = default;
+
+std::vector<std::string> ExactFormFactors::left_out() const {
+  std::vector<std::string> notes = {"pairs facing away or coplanar: no quadrature"};
+  if (visibility_) {
+    for (std::string& note : visibility_->left_out()) notes.push_back(std::move(note));
+  } else if (shafts_) {
+    notes.push_back(
+        "visibility by clipping: pairs whose shaft no polygon reaches get no clipping "
+        "(pairs_unoccluded); the others clip P_j by the shadows of the polygons in their shaft at "
+        "every quadrature point (pairs_traced, rays 0)");
+  } else {
+    notes.push_back(is_convex_enclosure(scene_)
+                        ? "visibility: none (the scene is a convex enclosure, nothing can occlude)"
+                        : "visibility: none (shaft culling proved every pair unoccluded)");
+  }
+  return notes;
+}
+
+double ExactFormFactors::pair(size_t i, size_t j, RowCost& cost) const {
+  if (i == j) return 0.0;
+  if (!pair_faces(mesh_, i, j, plane_epsilon_)) {
+    ++cost.pairs_culled;
+    return 0.0;
+  }
+  thread_local std::vector<Vec3> from, to;
+  mesh_.corners(i, from);
+  mesh_.corners(j, to);
+  // Integrate only over the part of i in front of j's plane (no jump in the integrand).
+  const double kept = clip_to_front(from, mesh_.centroid[j], mesh_.normal[j], plane_epsilon_);
+  if (kept <= 0.0) return 0.0;
+  long long evaluations = 0;
+  if (shafts_) {
+    thread_local std::vector<uint32_t> ids;
+    shafts_->blockers(i, j, ids);
+    // Candidates whose plane separates i from j block nothing.
+    thread_local std::vector<Occluder> occluders;
+    occluders.clear();
+    for (uint32_t id : ids) {
+      const Occluder o{scene_.polygons[id].vertices, occluder_normal_[id]};
+      if (!separated_by_plane(o, from, to, plane_epsilon_)) occluders.push_back(o);
+    }
+    if (!occluders.empty()) {
+      ++cost.pairs_traced;
+      // One occluder hiding j from every corner of i hides it from all of i.
+      thread_local VisibleScratch scratch;
+      for (const Occluder& o : occluders)
+        if (hides_from_corners(o, from, mesh_.normal[i], to, mesh_.normal[j], plane_epsilon_,
+                               scratch)) {
+          cost.kernel_evaluations += from.size();
+          return 0.0;
+        }
+      // The same budget as an unoccluded pair: `tolerance` relative to the pair's own value.
+      const double floor = 1e-16 / kept;
+      return kept * clipped_pair(i, j, from, to, occluders, floor, cost);
+    }
+  }
+  // Absolute floor 1e-16 of F_ij (per unit area, shrinking 4x per level; divided by `kept`
+  // because the integral over the kept part is scaled by it): only cells whose whole contribution
+  // is below double rounding stop on it.
+  const double f = kept * polygon_form_factor_adaptive(
+                              {from, mesh_.normal[i]}, {to, mesh_.normal[j]}, options_.tolerance,
+                              1e-16 / kept, options_.max_depth, &evaluations);
+  cost.kernel_evaluations += uint64_t(evaluations);
+  if (f <= 0.0) return 0.0;
+  if (visibility_) return f * visibility_->fraction(i, j, cost);
+  ++cost.pairs_unoccluded;
+  return f;
+}
+
+// The mean over `from` (i's part in front of j's plane) of F_{dx -> part of j visible from x},
+// the shadows of the polygons `ids` clipped away at every quadrature point (visible_polygon.h).
+// The same adaptive rule, tolerance and floor as the unoccluded integral: the integrand is
+// continuous in x (shadow edges move continuously), with kinks where x sees an occluder's edge
+// line up with another edge, which the adaptive rule refines like a shared edge's singularity.
+double ExactFormFactors::clipped_pair(size_t i, size_t j, std::span<const Vec3> from,
+                                      std::span<const Vec3> to, std::span<const Occluder> occluders,
+                                      double floor, RowCost& cost) const {
+  const Vec3 n = mesh_.normal[i], to_normal = mesh_.normal[j];
+  const double epsilon = plane_epsilon_;
+  thread_local VisibleScratch scratch;
+  const PointIntegrand visible = [&](const Vec3& x) {
+    return visible_form_factor(x, n, to, to_normal, occluders, epsilon, scratch);
+  };
+  long long evaluations = 0;
+  const double f =
+      polygon_integral_adaptive({from, n}, {to, to_normal}, &visible, options_.tolerance, floor,
+                                options_.max_depth, &evaluations);
+  cost.kernel_evaluations += uint64_t(evaluations);
+  return f > 0.0 ? f : 0.0;
+}
+
+void ExactFormFactors::row(size_t i, std::span<double> out, RowCost& cost) const {
+  for (size_t j = 0; j < out.size(); ++j) out[j] = pair(i, j, cost);
+}
+
+bool ExactFormFactors::row_part(size_t i, size_t lo, size_t hi, std::span<double> out,
+                                RowCost& cost) const {
+  for (size_t j = lo; j < hi; ++j) out[j] = pair(i, j, cost);
+  return true;
+}
+
+}  // namespace radlab

@@ -1,0 +1,86 @@
+// `exact` form factors: unoccluded element-to-element form factors to ~1e-9 relative, for
+// validation and for small scenes where nothing can occlude.
+//
+//   F_ij = (1/A_i) * integral over x in element i of F_{dx -> j} dA_x
+//
+// with Lambert's exact point-to-polygon formula (point_polygon.h) as the integrand and adaptive
+// subdivision of the part of element i in front of j's plane (polygon_integral.h: 4 children,
+// 3x3 Gauss rules, the worst cell first, until the estimated error of the whole pair is within
+// `tolerance` relative). The integrand is analytic for separated pairs and has an integrable
+// log-singular derivative along an edge two elements share; both converge
+// (tests/formfactor_test.cpp: parallel and perpendicular unit squares within 1e-8).
+//
+// Visibility. The formula knows nothing of occluders, so the method is valid only when no pair
+// can be occluded: the scene is a convex enclosure, or shaft culling (shaft.h) proves every
+// facing pair's shaft empty. Otherwise it refuses (InputError, exit 3) and names a pair and a
+// polygon that may block it — unless `visibility=rays`, which multiplies every pair that may be
+// blocked by the raycast visibility fraction (`rays` Embree rays between jittered points, seeded
+// by `seed`; V_ij = V_ji). The result is then exact only where nothing blocks; elsewhere its error
+// is that of the visibility estimate (~1/sqrt(rays) per partly occluded pair), as for `raycast`.
+//   `visibility=clip` instead computes occluded pairs deterministically: a pair whose shaft some
+// polygon may reach integrates, at each quadrature point x of i, Lambert's formula over the part
+// of j that x sees, j minus the shadows from x of the polygons in the shaft (visible_polygon.h).
+// Pairs whose shaft is empty cost what they cost without clipping; fully hidden pairs end at the
+// first 3x3 rules (every point sees nothing, so the estimated error is 0). The error is then the
+// quadrature's alone: `tolerance` relative per pair, estimated by the same adaptive rule (the
+// integrand is continuous; its derivative jumps where a shadow edge crosses an edge of j, which
+// the rule refines like a shared edge). No seed.
+//
+// Left out: pairs facing away or coplanar (no work, pairs_culled); visibility rays wherever
+// nothing can occlude (pairs_unoccluded).
+//
+// Parameters: tolerance (relative, per pair, 1e-10), max_depth (subdivision levels,
+// 16), visibility (refuse | rays | clip, refuse), rays (per pair that may be blocked, 64; only with
+// visibility=rays), seed (0; only with visibility=rays).
+#pragma once
+
+#include <memory>
+
+#include "radlab/formfactor/form_factor_method.h"
+#include "radlab/formfactor/shaft.h"
+#include "radlab/formfactor/visibility.h"
+#include "radlab/formfactor/visible_polygon.h"
+
+namespace radlab {
+
+struct ExactOptions {
+  double tolerance = 1e-10;  // relative error per pair; each factor 10 costs ~2-4x evaluations
+  int max_depth = 16;        // subdivision levels of the adaptive rule; bounds the work per pair
+  bool visibility_rays = false;  // false: refuse scenes that can occlude; true: multiply by V
+  int rays = 64;                 // visibility rays per pair that may be blocked (rays mode)
+  uint64_t seed = 0;             // jitter of the visibility points (rays mode)
+  bool visibility_clip = false;  // true: clip P_j by the occluders' shadows (deterministic)
+
+  static ExactOptions from(ParamBag& bag);
+  void validate() const;
+  std::string canonical() const;
+};
+
+class ExactFormFactors final : public FormFactorMethod {
+ public:
+  // Throws InputError when the scene can occlude and visibility rays are off.
+  ExactFormFactors(const Scene& scene, const Mesh& mesh, ExactOptions options);
+  ~ExactFormFactors() override;
+  std::string name() const override { return "exact"; }
+  std::string parameters() const override { return options_.canonical(); }
+  std::vector<std::string> left_out() const override;
+  void row(size_t i, std::span<double> out, RowCost& cost) const override;
+  bool row_part(size_t i, size_t lo, size_t hi, std::span<double> out,
+                RowCost& cost) const override;
+
+  double pair(size_t i, size_t j, RowCost& cost) const;
+
+ private:
+  const Scene& scene_;
+  const Mesh& mesh_;
+  ExactOptions options_;
+  double plane_epsilon_ = 0.0;
+  bool nothing_occludes_ = false;  // convex enclosure, or every facing pair's shaft is empty
+  std::unique_ptr<Visibility> visibility_;  // rays mode only
+  std::unique_ptr<ShaftCuller> shafts_;     // clip mode (unless nothing can occlude)
+  std::vector<Vec3> occluder_normal_;       // clip mode: unit normal of every input polygon
+  double clipped_pair(size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to,
+                      std::span<const Occluder> occluders, double floor, RowCost& cost) const;
+};
+
+}  // namespace radlab

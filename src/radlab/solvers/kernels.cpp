@@ -1,0 +1,775 @@
+#include "radlab/solvers/kernels.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <limits>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "radlab/core/error.h"
+
+// The AVX2 versions use GCC/Clang vector extensions inside functions compiled for AVX2 only;
+// their 32-byte vector values never cross a call boundary (every helper is always_inline), so
+// GCC's note about the AVX calling convention does not apply.
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define RADLAB_HAVE_AVX2_KERNELS 1
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic ignored "-Wpsabi"
+#endif
+#include <immintrin.h>
+#endif
+
+namespace radlab::kernels {
+namespace {
+
+constexpr size_t kLanes = 16;      // sums are kept in 16 lanes: lane = j mod 16
+constexpr size_t kBlock = 64;      // shots find the maximum per block of 64, then inside the block
+constexpr size_t kPrefetch = 512;  // elements ahead in the row (2 KB of floats)
+constexpr size_t kAlignDoubles = 4;  // shots align their dB stores to 32 bytes
+
+// The one way 16 lane sums become a total, shared by both versions.
+inline double combine(double* s) {
+  for (size_t w = kLanes / 2; w >= 1; w /= 2)
+    for (size_t q = 0; q < w; ++q) s[q] += s[q + w];
+  return s[0];
+}
+
+template <bool kClamp>
+inline double clamped(double v) {
+  if constexpr (kClamp) return v > 0.0 ? v : 0.0;
+  return v;
+}
+
+// ------------------------------------------------------------------------------------------
+// Scalar versions: the definition of the arithmetic.
+
+// Adds F[j] x_c[j] to lane j mod 16 of s[c] for j in [lo, hi): a row's gather is this over
+// [0, n) (or over each stored run of a sparse row) followed by combine().
+template <class T, int C, bool kClamp>
+void gather_lanes_scalar(const T* F, size_t lo, size_t hi, const double* const* x,
+                         double (*s)[kLanes]) {
+  for (size_t j = lo; j < hi; ++j) {
+    const double f = double(F[j]);
+    for (int c = 0; c < C; ++c) s[c][j % kLanes] += f * clamped<kClamp>(x[c][j]);
+  }
+}
+
+template <class T, int C>
+void gather_scatter_scalar(const T* F, size_t n, const double* const* x, double* out,
+                           double* const* z, const double* a) {
+  double s[C][kLanes] = {};
+  for (size_t j = 0; j < n; ++j) {
+    const double f = double(F[j]);
+    for (int c = 0; c < C; ++c) {
+      s[c][j % kLanes] += f * x[c][j];
+      z[c][j] += a[c] * f;
+    }
+  }
+  for (int c = 0; c < C; ++c) out[c] = combine(s[c]);
+}
+
+// The priority of element j after its update, in the order both versions use:
+// (0 + |dB_0j (+ o_0j)| + |dB_1j (+ o_1j)| + ...) * A_j.
+template <int C, bool kOffset>
+inline double priority(const ShotTargets& t, size_t j) {
+  double p = 0.0;
+  for (int c = 0; c < C; ++c) {
+    if constexpr (kOffset)
+      p += std::fabs(t.unshot[c][j] + t.offset[c][j]);
+    else
+      p += std::fabs(t.unshot[c][j]);
+  }
+  return p * t.area[j];
+}
+
+// The run holding element j.
+inline const ReflectanceRun* first_run(const ShotTargets& t, size_t j) {
+  return std::upper_bound(t.runs, t.runs + t.run_count, j,
+                          [](size_t e, const ReflectanceRun& r) { return e < r.end; });
+}
+
+// Calls fn(a, b, rho) for the pieces of [lo, hi) that share one source of reflectance: with
+// runs, the part of each run inside [lo, hi) and the run's reflectance; without, [lo, hi) itself
+// and null (the reflectance is then read per element).
+template <bool kRuns, class Fn>
+inline void for_each_segment(const ShotTargets& t, size_t lo, size_t hi, Fn&& fn) {
+  if constexpr (kRuns) {
+    for (const ReflectanceRun* run = first_run(t, lo); lo < hi; ++run) {
+      const size_t b = std::min(hi, run->end);
+      fn(lo, b, static_cast<const double*>(run->rho));
+      lo = b;
+    }
+  } else {
+    fn(lo, hi, static_cast<const double*>(nullptr));
+  }
+}
+
+// The update of one receiver j: the definition of a shot's arithmetic,
+//   g = F_ij * (1/A_j),  dB_cj += g * (k_c * rho_cj),  coverage_j += g * coverage_scale.
+// kr[c] = k[c] * rho_c when the segment is one run (the same product, formed once), else null and
+// the product is formed here from the reflectance arrays.
+template <class T, int C, bool kCoverage, bool kRuns>
+inline void shoot1(const T* F, size_t j, const double* k, const double* kr, double coverage_scale,
+                   const ShotTargets& t) {
+  const double g = double(F[j]) * t.inverse_area[j];
+  for (int c = 0; c < C; ++c) {
+    double k_rho;
+    if constexpr (kRuns)
+      k_rho = kr[c];
+    else
+      k_rho = k[c] * t.reflectance[c][j];
+    t.unshot[c][j] += g * k_rho;
+  }
+  if constexpr (kCoverage) t.coverage[j] += g * coverage_scale;
+}
+
+template <class T, int C, bool kSelect, bool kOffset, bool kCoverage, bool kRuns>
+Argmax shoot_scalar(const T* F, size_t lo, size_t hi, const double* k, double coverage_scale,
+                    const ShotTargets& t) {
+  Argmax best;
+  for_each_segment<kRuns>(t, lo, hi, [&](size_t a, size_t b, const double* rho) {
+    double kr[3] = {0.0, 0.0, 0.0};
+    if constexpr (kRuns)
+      for (int c = 0; c < C; ++c) kr[c] = k[c] * rho[c];
+    for (size_t j = a; j < b; ++j) {
+      shoot1<T, C, kCoverage, kRuns>(F, j, k, kr, coverage_scale, t);
+      if constexpr (kSelect) {
+        const double p = priority<C, kOffset>(t, j);
+        if (p > best.value) best = {p, j};
+      }
+    }
+  });
+  return best;
+}
+
+// ------------------------------------------------------------------------------------------
+// AVX2 versions.
+
+#ifdef RADLAB_HAVE_AVX2_KERNELS
+typedef double v4d __attribute__((vector_size(32)));
+typedef long long v4i __attribute__((vector_size(32)));
+
+#define RADLAB_AVX2 __attribute__((target("avx2")))
+#define RADLAB_AVX2_INLINE __attribute__((target("avx2"), always_inline)) inline
+
+RADLAB_AVX2_INLINE v4d load(const double* p) {
+  v4d v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+RADLAB_AVX2_INLINE v4d load(const float* p) {
+  return _mm256_cvtps_pd(_mm_loadu_ps(p));
+}
+RADLAB_AVX2_INLINE void store(double* p, v4d v) {
+  std::memcpy(p, &v, sizeof v);
+}
+RADLAB_AVX2_INLINE v4d splat(double x) {
+  return v4d{x, x, x, x};
+}
+RADLAB_AVX2_INLINE v4d vabs(v4d v) {
+  constexpr long long kAllButSign = std::numeric_limits<long long>::max();
+  const v4i mask = {kAllButSign, kAllButSign, kAllButSign, kAllButSign};
+  v4i bits;
+  std::memcpy(&bits, &v, sizeof bits);
+  bits &= mask;
+  std::memcpy(&v, &bits, sizeof v);
+  return v;
+}
+// max(a, b) as MAXPD computes it: a if a > b, else b; a NaN in a is ignored, like the scalar
+// selection's `p > best`.
+RADLAB_AVX2_INLINE v4d vmax(v4d a, v4d b) {
+  return _mm256_max_pd(a, b);
+}
+template <bool kClamp>
+RADLAB_AVX2_INLINE v4d vclamped(v4d v) {
+  if constexpr (kClamp) return v > splat(0.0) ? v : splat(0.0);
+  return v;
+}
+
+// gather_lanes_scalar's sums, 16 columns at a time from the first multiple of 16 in [lo, hi):
+// each lane still adds its columns in increasing order, so the lane sums are the same bits.
+template <class T, int C, bool kClamp>
+RADLAB_AVX2 void gather_lanes_avx2(const T* F, size_t lo, size_t hi, const double* const* x_in,
+                                   double (*s)[kLanes]) {
+  const double* x[C];  // local copies: the stores below may alias any memory
+  for (int c = 0; c < C; ++c) x[c] = x_in[c];
+  size_t j = lo;
+  for (; j < hi && j % kLanes != 0; ++j) {
+    const double f = double(F[j]);
+    for (int c = 0; c < C; ++c) s[c][j % kLanes] += f * clamped<kClamp>(x[c][j]);
+  }
+  if (j + kLanes <= hi) {
+    v4d acc[C][4];
+    for (int c = 0; c < C; ++c)
+      for (int q = 0; q < 4; ++q) acc[c][q] = load(&s[c][4 * q]);
+    for (; j + kLanes <= hi; j += kLanes) {
+      __builtin_prefetch(F + j + kPrefetch);
+      v4d f[4];
+      for (int q = 0; q < 4; ++q) f[q] = load(F + j + 4 * q);
+      for (int c = 0; c < C; ++c)
+        for (int q = 0; q < 4; ++q) acc[c][q] += f[q] * vclamped<kClamp>(load(x[c] + j + 4 * q));
+    }
+    for (int c = 0; c < C; ++c)
+      for (int q = 0; q < 4; ++q) store(&s[c][4 * q], acc[c][q]);
+  }
+  for (; j < hi; ++j) {
+    const double f = double(F[j]);
+    for (int c = 0; c < C; ++c) s[c][j % kLanes] += f * clamped<kClamp>(x[c][j]);
+  }
+}
+
+template <class T, int C>
+RADLAB_AVX2 void gather_scatter_avx2(const T* F, size_t n, const double* const* x_in, double* out,
+                                     double* const* z_in, const double* a) {
+  // Local copies of the channel pointers (see Lanes below).
+  const double* x[C];
+  double* z[C];
+  for (int c = 0; c < C; ++c) {
+    x[c] = x_in[c];
+    z[c] = z_in[c];
+  }
+  v4d acc[C][4];
+  v4d ak[C];
+  for (int c = 0; c < C; ++c) {
+    ak[c] = splat(a[c]);
+    for (int q = 0; q < 4; ++q) acc[c][q] = splat(0.0);
+  }
+  size_t j = 0;
+  for (; j + kLanes <= n; j += kLanes) {
+    __builtin_prefetch(F + j + kPrefetch);
+    v4d f[4];
+    for (int q = 0; q < 4; ++q) f[q] = load(F + j + 4 * q);
+    for (int c = 0; c < C; ++c)
+      for (int q = 0; q < 4; ++q) {
+        acc[c][q] += f[q] * load(x[c] + j + 4 * q);
+        store(z[c] + j + 4 * q, load(z[c] + j + 4 * q) + ak[c] * f[q]);
+      }
+  }
+  double s[C][kLanes];
+  for (int c = 0; c < C; ++c)
+    for (int q = 0; q < 4; ++q) std::memcpy(&s[c][4 * q], &acc[c][q], sizeof(v4d));
+  for (; j < n; ++j) {
+    const double f = double(F[j]);
+    for (int c = 0; c < C; ++c) {
+      s[c][j % kLanes] += f * x[c][j];
+      z[c][j] += a[c] * f;
+    }
+  }
+  for (int c = 0; c < C; ++c) out[c] = combine(s[c]);
+}
+
+// The arrays of one shot, copied out of ShotTargets: the vector stores (memcpy) may alias any
+// memory, so pointers read through a reference would be reloaded after every store.
+template <int C>
+struct Lanes {
+  double* u[C];
+  const double* rho[C];
+  const double* o[C];  // offsets (null without)
+  const double* area;
+  double* coverage;
+  const double* inverse_area;
+  explicit Lanes(const ShotTargets& t)
+      : area(t.area), coverage(t.coverage), inverse_area(t.inverse_area) {
+    for (int c = 0; c < C; ++c) {
+      u[c] = t.unshot[c];
+      rho[c] = t.reflectance[c];
+      o[c] = t.offset[c];
+    }
+  }
+};
+
+// Updates 4 receivers starting at j (shoot1's arithmetic, 4 lanes at once); returns their
+// priorities (if kSelect). kk[c] holds k_c * rho_c with runs, k_c without.
+template <class T, int C, bool kSelect, bool kOffset, bool kCoverage, bool kRuns>
+RADLAB_AVX2_INLINE v4d shoot4(const T* F, size_t j, const v4d* kk, v4d coverage_scale,
+                              const Lanes<C>& l) {
+  const v4d g = load(F + j) * load(l.inverse_area + j);
+  v4d p;
+  for (int c = 0; c < C; ++c) {
+    v4d k_rho;
+    if constexpr (kRuns)
+      k_rho = kk[c];
+    else
+      k_rho = kk[c] * load(l.rho[c] + j);
+    const v4d v = load(l.u[c] + j) + g * k_rho;
+    store(l.u[c] + j, v);
+    if constexpr (kSelect) {
+      v4d a;  // |dB_c (+ o_c)|
+      if constexpr (kOffset)
+        a = vabs(v + load(l.o[c] + j));
+      else
+        a = vabs(v);
+      p = c == 0 ? a : p + a;  // = 0 + |v_0| + ...
+    }
+  }
+  if constexpr (kCoverage) store(l.coverage + j, load(l.coverage + j) + g * coverage_scale);
+  if constexpr (kSelect) return p * load(l.area + j);
+  return splat(0.0);
+}
+
+// The largest priority seen so far and the first block [start, end) that holds it.
+struct BlockBest {
+  double value = -1.0;
+  size_t start = kNone, end = kNone;
+};
+
+// One segment [a, b) of one reflectance source, in blocks of up to 64 receivers: 8 at a time, then
+// 4, then one by one; each block's maximum is reduced once and compared with the best so far
+// (strictly greater: the first block wins ties, like the scalar loop's first index).
+template <class T, int C, bool kSelect, bool kOffset, bool kCoverage, bool kRuns>
+RADLAB_AVX2_INLINE void shoot_segment_avx2(const T* F, size_t a, size_t b, const double* k,
+                                           const double* rho_scalar, double coverage_scale,
+                                           const ShotTargets& t, const Lanes<C>& l,
+                                           BlockBest& best) {
+  double kr[3] = {0.0, 0.0, 0.0};  // k_c * rho_c of the run
+  v4d kk[C];
+  for (int c = 0; c < C; ++c) {
+    if constexpr (kRuns) kr[c] = k[c] * rho_scalar[c];
+    kk[c] = splat(kRuns ? kr[c] : k[c]);
+  }
+  const v4d cs = splat(coverage_scale);
+  // The receivers before dB_0 + j is 32-byte aligned, one by one, as a block of their own: the
+  // arrays come from malloc (16-byte aligned), and a 32-byte store that straddles two cache lines
+  // costs two; this made the RGB shot ~10% faster. (The other channels are aligned too when
+  // n is a multiple of 4.)
+  size_t j = a;
+  {
+    const size_t head = std::min(b, a + (kAlignDoubles - reinterpret_cast<uintptr_t>(l.u[0] + a) /
+                                                             sizeof(double) % kAlignDoubles) %
+                                            kAlignDoubles);
+    double mm = -1.0;
+    for (; j < head; ++j) {
+      shoot1<T, C, kCoverage, kRuns>(F, j, k, kr, coverage_scale, t);
+      if constexpr (kSelect) {
+        const double p = priority<C, kOffset>(t, j);
+        if (p > mm) mm = p;
+      }
+    }
+    if (kSelect && mm > best.value) best = {mm, a, head};
+  }
+  while (j < b) {
+    const size_t end = std::min(b, j + kBlock);
+    v4d m0 = splat(-1.0), m1 = splat(-1.0);
+    size_t q = j;
+    for (; q + 8 <= end; q += 8) {
+      __builtin_prefetch(F + q + kPrefetch);
+      const v4d p0 = shoot4<T, C, kSelect, kOffset, kCoverage, kRuns>(F, q, kk, cs, l);
+      const v4d p1 = shoot4<T, C, kSelect, kOffset, kCoverage, kRuns>(F, q + 4, kk, cs, l);
+      if constexpr (kSelect) {
+        m0 = vmax(p0, m0);
+        m1 = vmax(p1, m1);
+      }
+    }
+    if (q + 4 <= end) {
+      const v4d p0 = shoot4<T, C, kSelect, kOffset, kCoverage, kRuns>(F, q, kk, cs, l);
+      if constexpr (kSelect) m0 = vmax(p0, m0);
+      q += 4;
+    }
+    double mm = -1.0;
+    if constexpr (kSelect) {
+      const v4d m = vmax(m0, m1);
+      mm = std::fmax(std::fmax(m[0], m[1]), std::fmax(m[2], m[3]));
+    }
+    for (; q < end; ++q) {
+      shoot1<T, C, kCoverage, kRuns>(F, q, k, kr, coverage_scale, t);
+      if constexpr (kSelect) {
+        const double p = priority<C, kOffset>(t, q);
+        if (p > mm) mm = p;
+      }
+    }
+    if (kSelect && mm > best.value) best = {mm, j, end};
+    j = end;
+  }
+}
+
+template <class T, int C, bool kSelect, bool kOffset, bool kCoverage, bool kRuns>
+RADLAB_AVX2 Argmax shoot_avx2(const T* F, size_t lo, size_t hi, const double* k,
+                              double coverage_scale, const ShotTargets& t) {
+  const Lanes<C> l(t);
+  BlockBest block;
+  // for_each_segment written out: a lambda would not be compiled for AVX2.
+  if constexpr (kRuns) {
+    for (const ReflectanceRun* run = first_run(t, lo); lo < hi; ++run) {
+      const size_t b = std::min(hi, run->end);
+      shoot_segment_avx2<T, C, kSelect, kOffset, kCoverage, true>(F, lo, b, k, run->rho,
+                                                                  coverage_scale, t, l, block);
+      lo = b;
+    }
+  } else {
+    shoot_segment_avx2<T, C, kSelect, kOffset, kCoverage, false>(F, lo, hi, k, nullptr,
+                                                                 coverage_scale, t, l, block);
+  }
+  Argmax best;
+  if constexpr (kSelect) {
+    if (block.start != kNone) {  // the first element of the block holding the block's maximum
+      for (size_t j = block.start; j < block.end; ++j)
+        if (priority<C, kOffset>(t, j) == block.value) {
+          best = {block.value, j};
+          break;
+        }
+    }
+  }
+  return best;
+}
+// The priorities of 4 elements from q, as priority<C, kOffset> forms them (the leading 0 + is
+// exact: |v| >= +0).
+template <int C, bool kOffset>
+RADLAB_AVX2_INLINE v4d priority4(size_t q, const Lanes<C>& l) {
+  v4d p;
+  for (int c = 0; c < C; ++c) {
+    v4d a;
+    if constexpr (kOffset)
+      a = vabs(load(l.u[c] + q) + load(l.o[c] + q));
+    else
+      a = vabs(load(l.u[c] + q));
+    p = c == 0 ? a : p + a;
+  }
+  return p * load(l.area + q);
+}
+
+// max_priority_scan's result (the largest priority, its lowest index) by blocks of 64 as the shot
+// finds it: each block's maximum, the first block holding the largest, then its first index.
+template <int C, bool kOffset>
+RADLAB_AVX2 Argmax max_priority_avx2(size_t lo, size_t hi, const ShotTargets& t) {
+  const Lanes<C> l(t);
+  BlockBest block;
+  for (size_t j = lo; j < hi;) {
+    const size_t end = std::min(hi, j + kBlock);
+    v4d m0 = splat(-1.0), m1 = splat(-1.0);
+    size_t q = j;
+    for (; q + 8 <= end; q += 8) {
+      m0 = vmax(priority4<C, kOffset>(q, l), m0);
+      m1 = vmax(priority4<C, kOffset>(q + 4, l), m1);
+    }
+    if (q + 4 <= end) {
+      m0 = vmax(priority4<C, kOffset>(q, l), m0);
+      q += 4;
+    }
+    const v4d m = vmax(m0, m1);
+    double mm = std::fmax(std::fmax(m[0], m[1]), std::fmax(m[2], m[3]));
+    for (; q < end; ++q) {
+      const double p = priority<C, kOffset>(t, q);
+      if (p > mm) mm = p;
+    }
+    if (mm > block.value) block = {mm, j, end};
+    j = end;
+  }
+  Argmax best;
+  if (block.start != kNone)
+    for (size_t j = block.start; j < block.end; ++j)
+      if (priority<C, kOffset>(t, j) == block.value) {
+        best = {block.value, j};
+        break;
+      }
+  return best;
+}
+#endif  // RADLAB_HAVE_AVX2_KERNELS
+
+bool detect_avx2() {
+#ifdef RADLAB_HAVE_AVX2_KERNELS
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx2");
+#else
+  return false;
+#endif
+}
+
+// RADLAB_KERNELS: "scalar" forces the scalar versions; unset, empty or "auto" leaves the choice
+// to the CPU. Anything else is refused (check_kernel_environment) rather than ignored.
+const char* kernel_environment() {
+  const char* value = std::getenv("RADLAB_KERNELS");
+  return value ? value : "";
+}
+
+std::atomic<bool>& vector_enabled() {
+  static std::atomic<bool> enabled{detect_avx2() &&
+                                   std::strcmp(kernel_environment(), "scalar") != 0};
+  return enabled;
+}
+
+// ------------------------------------------------------------------------------------------
+// Dispatch on channels and instruction set.
+
+// The column origin of a run: origin[j] is the run's value for column j (first <= j). Formed by
+// integer arithmetic, as the pointer itself may lie before the values' array; only columns of the
+// run are read through it.
+template <class T>
+const T* column_origin(const T* values, size_t first) {
+  return reinterpret_cast<const T*>(reinterpret_cast<uintptr_t>(values) - first * sizeof(T));
+}
+
+// Calls lanes(F, lo, hi) over the row's columns: [0, n) of a dense row, each stored run of a
+// sparse one (with F the run's column origin).
+template <class T, class Fn>
+void for_each_stored(const T* F, size_t n, Fn&& lanes) {
+  lanes(F, size_t(0), n);
+}
+template <class T, class Fn>
+void for_each_stored(const RunRow<T>& F, size_t, Fn&& lanes) {
+  for (size_t k = 0; k < F.runs; ++k) {
+    const size_t first = F.first(k);
+    lanes(column_origin(F.value + F.begin(k), first), first, first + F.count(k));
+  }
+}
+
+template <int C, bool kClamp, class Row>
+void gather_channels(const Row& F, size_t n, const double* const* x, double* out) {
+  double s[C][kLanes] = {};
+#ifdef RADLAB_HAVE_AVX2_KERNELS
+  if (vector_enabled().load(std::memory_order_relaxed)) {
+    for_each_stored(F, n, [&](const auto* row, size_t lo, size_t hi) {
+      gather_lanes_avx2<std::remove_cvref_t<decltype(*row)>, C, kClamp>(row, lo, hi, x, s);
+    });
+    for (int c = 0; c < C; ++c) out[c] = combine(s[c]);
+    return;
+  }
+#endif
+  for_each_stored(F, n, [&](const auto* row, size_t lo, size_t hi) {
+    gather_lanes_scalar<std::remove_cvref_t<decltype(*row)>, C, kClamp>(row, lo, hi, x, s);
+  });
+  for (int c = 0; c < C; ++c) out[c] = combine(s[c]);
+}
+
+template <bool kClamp, class Row>
+void gather_dispatch(const Row& F, const Radiosity& x, double* out) {
+  const size_t n = x.size();
+  const double* ptr[3] = {x.channel(0).data(), nullptr, nullptr};
+  if (x.channels() == 3) {
+    ptr[1] = x.channel(1).data();
+    ptr[2] = x.channel(2).data();
+  }
+  if (x.channels() == 1) return gather_channels<1, kClamp>(F, n, ptr, out);
+  gather_channels<3, kClamp>(F, n, ptr, out);
+}
+
+template <class T>
+void gather_scatter_dispatch(const T* F, const Radiosity& x, double* out, Radiosity& z,
+                             const double* a) {
+  const size_t n = x.size();
+  const double* xp[3] = {x.channel(0).data(), nullptr, nullptr};
+  double* zp[3] = {z.channel(0).data(), nullptr, nullptr};
+  if (x.channels() == 3)
+    for (int c = 1; c < 3; ++c) {
+      xp[c] = x.channel(c).data();
+      zp[c] = z.channel(c).data();
+    }
+#ifdef RADLAB_HAVE_AVX2_KERNELS
+  if (vector_enabled().load(std::memory_order_relaxed)) {
+    if (x.channels() == 1) return gather_scatter_avx2<T, 1>(F, n, xp, out, zp, a);
+    return gather_scatter_avx2<T, 3>(F, n, xp, out, zp, a);
+  }
+#endif
+  if (x.channels() == 1) return gather_scatter_scalar<T, 1>(F, n, xp, out, zp, a);
+  return gather_scatter_scalar<T, 3>(F, n, xp, out, zp, a);
+}
+
+template <class T, int C, bool kSelect, bool kOffset, bool kCoverage, bool kRuns>
+Argmax shoot_isa(const T* F, size_t lo, size_t hi, const double* k, double cs,
+                 const ShotTargets& t) {
+#ifdef RADLAB_HAVE_AVX2_KERNELS
+  if (vector_enabled().load(std::memory_order_relaxed))
+    return shoot_avx2<T, C, kSelect, kOffset, kCoverage, kRuns>(F, lo, hi, k, cs, t);
+#endif
+  return shoot_scalar<T, C, kSelect, kOffset, kCoverage, kRuns>(F, lo, hi, k, cs, t);
+}
+
+template <class T, int C, bool kSelect, bool kOffset, bool kCoverage>
+Argmax shoot_runs(const T* F, size_t lo, size_t hi, const double* k, double cs,
+                  const ShotTargets& t) {
+  if (t.runs) return shoot_isa<T, C, kSelect, kOffset, kCoverage, true>(F, lo, hi, k, cs, t);
+  return shoot_isa<T, C, kSelect, kOffset, kCoverage, false>(F, lo, hi, k, cs, t);
+}
+
+template <class T, int C>
+Argmax shoot_flags(const T* F, size_t lo, size_t hi, const double* k, double cs,
+                   const ShotTargets& t, bool select) {
+  const bool coverage = t.coverage != nullptr;
+  if (select && t.offset[0])
+    return coverage ? shoot_runs<T, C, true, true, true>(F, lo, hi, k, cs, t)
+                    : shoot_runs<T, C, true, true, false>(F, lo, hi, k, cs, t);
+  if (select)
+    return coverage ? shoot_runs<T, C, true, false, true>(F, lo, hi, k, cs, t)
+                    : shoot_runs<T, C, true, false, false>(F, lo, hi, k, cs, t);
+  return coverage ? shoot_runs<T, C, false, false, true>(F, lo, hi, k, cs, t)
+                  : shoot_runs<T, C, false, false, false>(F, lo, hi, k, cs, t);
+}
+
+template <class T>
+Argmax shoot_serial(const T* F, size_t lo, size_t hi, const double* k, double cs,
+                    const ShotTargets& t, bool select) {
+  if (lo >= hi) return {};
+  if (t.channels == 1) return shoot_flags<T, 1>(F, lo, hi, k, cs, t, select);
+  return shoot_flags<T, 3>(F, lo, hi, k, cs, t, select);
+}
+
+std::atomic<size_t>& parallel_minimum() {
+  static std::atomic<size_t> minimum{kDefaultParallelShotMinimum};
+  return minimum;
+}
+
+// A long shot split over threads at fixed receiver boundaries (multiples of kShotChunk from 0,
+// whatever the thread count): every receiver's update is the same arithmetic wherever it runs,
+// and the pieces' maxima are combined in index order with a strict `>`, which keeps the lowest
+// index of the largest priority, as the serial pass does. So the same bits on any thread count.
+template <class T>
+Argmax shoot_dispatch(const T* F, size_t lo, size_t hi, const double* k, double cs,
+                      const ShotTargets& t, bool select) {
+  if (hi <= lo || hi - lo < parallel_minimum().load(std::memory_order_relaxed) ||
+      tbb::this_task_arena::max_concurrency() < 2)
+    return shoot_serial(F, lo, hi, k, cs, t, select);
+  const size_t first = lo / kShotChunk, last = (hi - 1) / kShotChunk;
+  std::vector<Argmax> best(last - first + 1);
+  tbb::this_task_arena::isolate([&] {
+    tbb::parallel_for(tbb::blocked_range<size_t>(first, last + 1, 1),
+                      [&](const tbb::blocked_range<size_t>& r) {
+                        for (size_t c = r.begin(); c != r.end(); ++c) {
+                          const size_t a = std::max(lo, c * kShotChunk);
+                          const size_t b = std::min(hi, (c + 1) * kShotChunk);
+                          best[c - first] = shoot_serial(F, a, b, k, cs, t, select);
+                        }
+                      });
+  });
+  Argmax result;
+  for (const Argmax& b : best)
+    if (b.value > result.value) result = b;
+  return result;
+}
+
+// A shot on a sparse row's stored runs: each run's receivers get the dense kernel over the run
+// (the same arithmetic, so the same bits); the receivers in the gaps would get exactly nothing
+// (kernels_row.h) and are not touched. With select, one scan of [lo, hi) afterwards finds the
+// largest priority and its lowest index: the same values, so the same result as the dense pass's
+// fused selection. (Selecting per run and scanning only the gaps was 2.2x slower on rows of
+// 64-column runs: each run's block search and the scalar gap scans cost more than one vector
+// scan of the state, which is in L2.)
+template <class T>
+Argmax shoot_sparse(const RunRow<T>& F, size_t lo, size_t hi, const double* k, double cs,
+                    const ShotTargets& t, bool select) {
+  for (size_t r = 0; r < F.runs; ++r) {
+    const size_t first = F.first(r);
+    if (first >= hi) break;
+    const size_t a = std::max(first, lo), b = std::min(first + F.count(r), hi);
+    if (a < b) shoot_dispatch(column_origin(F.value + F.begin(r), first), a, b, k, cs, t, false);
+  }
+  return select ? max_priority(lo, hi, t) : Argmax{};
+}
+
+}  // namespace
+
+void gather(const float* F, const Radiosity& x, double* out, bool clamp_negative) {
+  if (clamp_negative) return gather_dispatch<true>(F, x, out);
+  gather_dispatch<false>(F, x, out);
+}
+void gather(const double* F, const Radiosity& x, double* out, bool clamp_negative) {
+  if (clamp_negative) return gather_dispatch<true>(F, x, out);
+  gather_dispatch<false>(F, x, out);
+}
+void gather(const RunRow<float>& F, const Radiosity& x, double* out, bool clamp_negative) {
+  if (clamp_negative) return gather_dispatch<true>(F, x, out);
+  gather_dispatch<false>(F, x, out);
+}
+void gather(const RunRow<double>& F, const Radiosity& x, double* out, bool clamp_negative) {
+  if (clamp_negative) return gather_dispatch<true>(F, x, out);
+  gather_dispatch<false>(F, x, out);
+}
+
+void gather_scatter(const float* F, const Radiosity& x, double* out, Radiosity& z,
+                    const double* a) {
+  gather_scatter_dispatch(F, x, out, z, a);
+}
+void gather_scatter(const double* F, const Radiosity& x, double* out, Radiosity& z,
+                    const double* a) {
+  gather_scatter_dispatch(F, x, out, z, a);
+}
+
+Argmax shoot(const float* F, size_t lo, size_t hi, const double* k, double coverage_scale,
+             const ShotTargets& targets, bool select) {
+  return shoot_dispatch(F, lo, hi, k, coverage_scale, targets, select);
+}
+Argmax shoot(const double* F, size_t lo, size_t hi, const double* k, double coverage_scale,
+             const ShotTargets& targets, bool select) {
+  return shoot_dispatch(F, lo, hi, k, coverage_scale, targets, select);
+}
+
+Argmax shoot(const RunRow<float>& F, size_t lo, size_t hi, const double* k, double coverage_scale,
+             const ShotTargets& targets, bool select) {
+  return shoot_sparse(F, lo, hi, k, coverage_scale, targets, select);
+}
+Argmax shoot(const RunRow<double>& F, size_t lo, size_t hi, const double* k, double coverage_scale,
+             const ShotTargets& targets, bool select) {
+  return shoot_sparse(F, lo, hi, k, coverage_scale, targets, select);
+}
+
+namespace {
+
+template <int C, bool kOffset>
+Argmax max_priority_scan(size_t lo, size_t hi, const ShotTargets& t) {
+  Argmax best;
+  for (size_t j = lo; j < hi; ++j) {
+    const double p = priority<C, kOffset>(t, j);
+    if (p > best.value) best = {p, j};
+  }
+  return best;
+}
+
+}  // namespace
+
+Argmax max_priority(size_t lo, size_t hi, const ShotTargets& t) {
+#ifdef RADLAB_HAVE_AVX2_KERNELS
+  if (vector_enabled().load(std::memory_order_relaxed)) {
+    if (t.offset[0])
+      return t.channels == 1 ? max_priority_avx2<1, true>(lo, hi, t)
+                             : max_priority_avx2<3, true>(lo, hi, t);
+    return t.channels == 1 ? max_priority_avx2<1, false>(lo, hi, t)
+                           : max_priority_avx2<3, false>(lo, hi, t);
+  }
+#endif
+  if (t.offset[0])
+    return t.channels == 1 ? max_priority_scan<1, true>(lo, hi, t)
+                           : max_priority_scan<3, true>(lo, hi, t);
+  return t.channels == 1 ? max_priority_scan<1, false>(lo, hi, t)
+                         : max_priority_scan<3, false>(lo, hi, t);
+}
+
+void unshot_power(const ShotTargets& t, size_t n, bool clamp_negative, double* out) {
+  for (int c = 0; c < t.channels; ++c) {
+    double s[kLanes] = {};
+    const double* u = t.unshot[c];
+    if (clamp_negative)
+      for (size_t j = 0; j < n; ++j) s[j % kLanes] += t.area[j] * clamped<true>(u[j]);
+    else
+      for (size_t j = 0; j < n; ++j) s[j % kLanes] += t.area[j] * u[j];
+    out[c] = combine(s);
+  }
+}
+
+size_t set_parallel_shot_minimum(size_t receivers) {
+  return parallel_minimum().exchange(receivers);
+}
+
+bool vector_kernels() {
+  return vector_enabled().load();
+}
+
+void check_kernel_environment() {
+  const std::string value = kernel_environment();
+  if (!value.empty() && value != "auto" && value != "scalar")
+    throw UsageError("RADLAB_KERNELS must be 'scalar' or 'auto' (or unset), got '" + value + "'");
+}
+
+bool use_vector_kernels(bool enable) {
+  const bool available = detect_avx2();
+  vector_enabled().store(enable && available);
+  return enable && available;
+}
+
+}  // namespace radlab::kernels
