@@ -20,6 +20,9 @@
 // sums where the CPU has AVX2), what one core can stream (issue 13 target 5: >= 0.5). Run:
 //   build/bench/bench_solvers --benchmark_counters_tabular=true
 // Quote the ratios from one run; absolute times on this machine are noisy.
+// rgb/gapped/*: one RGB gather and one RGB sorted shot on a matrix with half its entries zero,
+// dense, sparse through a scratch row, and sparse through kernels::RunRow (the sparse layout's
+// path).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -253,7 +256,93 @@ void BM_GatherKernel(benchmark::State& state, const Problem* p) {
   report(state, *p, Order::kInOrder, row, s);
 }
 
+// The RGB problem's matrix with half its entries zero in blocks of 64 columns (a culled or
+// occluded polygon: every other block of each row, alternating from row to row), in the dense
+// and in the sparse layout, to time one sorted shot on each form of the same rows.
+struct Gapped {
+  FormFactorMatrix dense, sparse;
+};
+const Gapped& gapped() {
+  static const std::unique_ptr<Gapped> g = [] {
+    const FormFactorMatrix& m = rgb().matrix;
+    const size_t n = m.size();
+    auto out = std::make_unique<Gapped>();
+    out->dense = FormFactorMatrix(n, Precision::kFloat);
+    out->sparse = FormFactorMatrix(n, Precision::kFloat, Layout::kSparse);
+    std::vector<double> row(n);
+    for (size_t i = 0; i < n; ++i) {
+      for (size_t j = 0; j < n; ++j) row[j] = (j / 64 + i) % 2 ? double(m.row_f32(i)[j]) : 0.0;
+      out->dense.set_row(i, row);
+      out->sparse.set_row(i, row);
+    }
+    return out;
+  }();
+  return *g;
+}
+
+// One RGB sorted shot (ShootingCore::shoot, fused selection) on scattered rows of the gapped
+// matrix: form 0 = its dense rows, 1 = its sparse rows expanded into the scratch row
+// (FormFactorMatrix::visit_row, the path before kernels::RunRow), 2 = its sparse rows' stored
+// runs (System::with_compact_row's path). raw_fraction is against the dense rows' raw read.
+void BM_GappedShot(benchmark::State& state, int form) {
+  const Problem& p = rgb();
+  const Gapped& g = gapped();
+  const size_t n = p.system->size();
+  ShootingCore core;
+  core.init(*p.system);
+  const double s[3] = {1e-3, 1e-3, 1e-3};
+  size_t row = 0;
+  const double start = cpu_seconds();
+  for (auto _ : state) {
+    const size_t i = scattered(row++, n);
+    const FormFactorMatrix::SparseRow& r = g.sparse.sparse_row(i);
+    if (form == 0)
+      benchmark::DoNotOptimize(core.shoot(g.dense.row_f32(i), i, s, true));
+    else if (form == 1)
+      g.sparse.visit_row(
+          i, [&](const auto* F) { benchmark::DoNotOptimize(core.shoot(F, i, s, true)); });
+    else
+      benchmark::DoNotOptimize(core.shoot(
+          kernels::RunRow<float>{r.run.data(), r.run.size() / 2, r.f32.data(), r.f32.size()}, i, s,
+          true));
+  }
+  const double t = cpu_seconds() - start;
+  report(state, p, Order::kScattered, row, t);
+}
+
+// The RGB gather (Jacobi's, rows in order) on the gapped matrix's three row forms, as above.
+void BM_GappedGather(benchmark::State& state, int form) {
+  const Problem& p = rgb();
+  const Gapped& g = gapped();
+  const Radiosity& x = p.system->emission();
+  const size_t n = p.system->size();
+  double out[3];
+  size_t row = 0;
+  const double start = cpu_seconds();
+  for (auto _ : state) {
+    const size_t i = row++ % n;
+    const FormFactorMatrix::SparseRow& r = g.sparse.sparse_row(i);
+    if (form == 0)
+      kernels::gather(g.dense.row_f32(i), x, out);
+    else if (form == 1)
+      g.sparse.visit_row(i, [&](const auto* F) { kernels::gather(F, x, out); });
+    else
+      kernels::gather(
+          kernels::RunRow<float>{r.run.data(), r.run.size() / 2, r.f32.data(), r.f32.size()}, x,
+          out);
+    benchmark::DoNotOptimize(out[0]);
+  }
+  const double t = cpu_seconds() - start;
+  report(state, p, Order::kInOrder, row, t);
+}
+
 void register_all() {
+  benchmark::RegisterBenchmark("rgb/gapped/Gather(dense)", BM_GappedGather, 0);
+  benchmark::RegisterBenchmark("rgb/gapped/Gather(sparse, scratch row)", BM_GappedGather, 1);
+  benchmark::RegisterBenchmark("rgb/gapped/Gather(sparse, runs)", BM_GappedGather, 2);
+  benchmark::RegisterBenchmark("rgb/gapped/Shot(dense)", BM_GappedShot, 0);
+  benchmark::RegisterBenchmark("rgb/gapped/Shot(sparse, scratch row)", BM_GappedShot, 1);
+  benchmark::RegisterBenchmark("rgb/gapped/Shot(sparse, runs)", BM_GappedShot, 2);
   for (const Problem* p : {&grey(), &rgb()}) {
     const std::string tag = p == &grey() ? "grey" : "rgb";
     benchmark::RegisterBenchmark(("StreamRow/" + tag + "/in-order").c_str(), BM_StreamRow, p,

@@ -12,6 +12,7 @@
 #include "radlab/core/log.h"
 #include "radlab/experiments/version_info.h"
 #include "radlab/scene/scene_loader.h"
+#include "radlab/solvers/kernels.h"
 #include "radlab/solvers/plugin_loader.h"
 
 int main(int argc, char** argv) {
@@ -40,6 +41,10 @@ int main(int argc, char** argv) {
         throw CLI::Success();
       },
       "print radlab's version, git revision and dependency versions, and exit");
+  bool scalar_kernels = false;
+  app.add_flag("--scalar-kernels", scalar_kernels,
+               "run the solvers' portable scalar kernels instead of the AVX2 ones the CPU offers "
+               "(the same results bit for bit, slower; also RADLAB_KERNELS=scalar)");
   int threads = 0;
   radlab::cli::add_threads_option(app, threads);
   // These options may also follow the subcommand.
@@ -60,6 +65,8 @@ int main(int argc, char** argv) {
     radlab::load_plugins_from_environment();
     for (const std::string& plugin : plugins) radlab::load_plugin(plugin);
     radlab::cli::apply_threads(threads);
+    radlab::kernels::check_kernel_environment();
+    if (scalar_kernels) radlab::kernels::use_vector_kernels(false);
   });
   try {
     app.parse(argc, argv);

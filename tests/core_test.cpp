@@ -14,6 +14,7 @@
 #include "radlab/core/json.h"
 #include "radlab/core/json_reader.h"
 #include "radlab/core/param_bag.h"
+#include "radlab/core/progress.h"
 #include "radlab/core/random.h"
 #include "radlab/core/text.h"
 #include "tests/test_support.h"
@@ -129,3 +130,21 @@ TEST(ParamBag, RecordsTheDefaultOfEveryKeyRead) {
 
 }  // namespace
 }  // namespace radlab
+
+// Long work writing to a log (not a terminal, as under ctest, Slurm or CI) must show that it is
+// moving: lines while it runs, not only at the start and the end. With the interval at 0 every
+// update is a whole line ending in a newline (no carriage-return redraws in a log file).
+TEST(Progress, ALogGetsLinesWhileTheWorkRuns) {
+  radlab::Progress::set_log_interval(std::chrono::milliseconds(0));
+  testing::internal::CaptureStderr();
+  {
+    radlab::Progress progress("form factors", "rows", 4);
+    for (int done = 1; done <= 3; ++done) progress.update(done);
+    progress.finish();
+  }
+  const std::string text = testing::internal::GetCapturedStderr();
+  radlab::Progress::set_log_interval(std::chrono::milliseconds(60000));
+  EXPECT_NE(text.find("form factors: 3/4 rows"), std::string::npos) << text;
+  EXPECT_EQ(text.find('\r'), std::string::npos) << text;
+  EXPECT_NE(text.find("form factors: done in"), std::string::npos) << text;
+}

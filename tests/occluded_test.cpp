@@ -206,7 +206,8 @@ TEST(SymmetricBuild, EqualsTwoOneWayIntegrationsAndIsReciprocal) {
   const ExactFormFactors method = clip_method(scene, mesh, 1e-6);
   BuildReport one_way, symmetric;
   const FormFactorMatrix full = build_matrix(method, mesh.size(), Precision::kDouble, one_way);
-  const FormFactorMatrix half = build_matrix_symmetric(method, mesh, Precision::kDouble, symmetric);
+  const FormFactorMatrix half =
+      build_matrix_symmetric(method, mesh, Precision::kDouble, Layout::kDense, symmetric);
   size_t nonzero = 0;
   for (size_t i = 0; i < mesh.size(); ++i)
     for (size_t j = 0; j < mesh.size(); ++j) {

@@ -1,6 +1,6 @@
 // Progress of long work on stderr (never stdout). On a terminal, one line redrawn in place with
-// rate, elapsed time and ETA; otherwise (logs, CI) a line at the start and one at the end only.
-// Silenced by log::set_quiet(true).
+// rate, elapsed time and ETA; otherwise (logs, CI, Slurm) a line at the start, one a minute while
+// it runs, and one at the end. Silenced by log::set_quiet(true).
 #pragma once
 
 #include <chrono>
@@ -20,6 +20,9 @@ class Progress {
   void update(double done);
   // Final line with the total time.
   void finish(const std::string& note = "");
+
+  // The interval between progress lines in a log (default one minute; tests use 0).
+  static void set_log_interval(std::chrono::milliseconds interval);
 
  private:
   std::string label_, unit_;

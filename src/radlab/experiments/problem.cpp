@@ -9,8 +9,10 @@
 #include "radlab/core/progress.h"
 #include "radlab/experiments/reference_cache.h"
 #include "radlab/experiments/two_level_problem.h"
+#include "radlab/formfactor/exact.h"
 #include "radlab/formfactor/matrix_cache.h"
 #include "radlab/formfactor/raycast.h"
+#include "radlab/formfactor/symmetric_build.h"
 
 namespace radlab {
 namespace {
@@ -177,13 +179,20 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
         load_row_sampling_errors(*raycast, cache->path(key).string(), n);
       log::info("form factors: " + problem->build.summary());
     } else {
-      Progress progress("form factors (" + spec.ff_method + ", " + std::to_string(n) + " rows)",
-                        "rows", double(n));
       // Sparse: pairs culled or fully occluded cost nothing, and no row more than its dense form
-      // (src/radlab/formfactor/matrix.h); the solvers read the same numbers either way.
-      problem->matrix =
-          build_matrix(*problem->method, n, Precision::kDouble, Layout::kSparse, problem->build,
-                       [&](size_t done, size_t) { progress.update(double(done)); });
+      // (src/radlab/formfactor/matrix.h); the solvers read the same numbers either way. `exact`
+      // integrates each unordered pair once (the same bits as row by row:
+      // src/radlab/formfactor/symmetric_build.h).
+      const auto* exact = dynamic_cast<const ExactFormFactors*>(problem->method.get());
+      Progress progress("form factors (" + spec.ff_method + ", " + std::to_string(n) + " rows" +
+                            (exact ? ", each pair once)" : ")"),
+                        exact ? "pairs" : "rows",
+                        exact ? 0.5 * double(n) * double(n - 1) : double(n));
+      const auto update = [&](size_t done, size_t) { progress.update(double(done)); };
+      problem->matrix = exact ? build_matrix_symmetric(*exact, problem->mesh, Precision::kDouble,
+                                                       Layout::kSparse, problem->build, update)
+                              : build_matrix(*problem->method, n, Precision::kDouble,
+                                             Layout::kSparse, problem->build, update);
       progress.finish(std::to_string(problem->build.cost.rays) + " visibility rays");
       log::info("form factors: " + problem->build.summary());
     }

@@ -9,6 +9,12 @@
 // `tolerance` relative). The integrand is analytic for separated pairs and has an integrable
 // log-singular derivative along an edge two elements share; both converge
 // (tests/formfactor_test.cpp: parallel and perpendicular unit squares within 1e-8).
+// Separated pairs first try fixed Gauss rules of orders m and m - 1 (m from the Bernstein bound;
+// the double-area rule of double_area.h where both elements face each other wholly, else
+// Lambert's formula on a single-area rule) and keep order m when the two agree within
+// `tolerance` (exact.cpp, unoccluded()). Each pair is integrated over its smaller element (the
+// lower index on a tie) and the other entry follows by reciprocity, so the symmetric build
+// (symmetric_build.h) and every row give the same bits.
 //
 // Visibility. The formula knows nothing of occluders, so the method is valid only when no pair
 // can be occluded: the scene is a convex enclosure, or shaft culling (shaft.h) proves every
@@ -36,7 +42,9 @@
 
 #include <memory>
 
+#include "radlab/formfactor/double_area.h"
 #include "radlab/formfactor/form_factor_method.h"
+#include "radlab/formfactor/polygon_integral.h"
 #include "radlab/formfactor/shaft.h"
 #include "radlab/formfactor/visibility.h"
 #include "radlab/formfactor/visible_polygon.h"
@@ -68,9 +76,25 @@ class ExactFormFactors final : public FormFactorMethod {
   bool row_part(size_t i, size_t lo, size_t hi, std::span<double> out,
                 RowCost& cost) const override;
 
+  // F_ij, integrated over the smaller element of the pair (the lower index on equal areas) and
+  // turned around by reciprocity on the other side: pair(i, j) A_i == pair(j, i) A_j to
+  // rounding, and each is within `tolerance` relative of the exact value. row(), row_part() and
+  // build_matrix_symmetric() all give these bits (the symmetric build integrates each pair once).
   double pair(size_t i, size_t j, RowCost& cost) const;
+  // F_ij integrated over element i whatever the areas (the one-way integral pair() orients).
+  double pair_integral(size_t i, size_t j, RowCost& cost) const;
+  // Whether pair(i, j) integrates over i (true) or over j and scales by A_j / A_i (false).
+  static bool integrates_from(const Mesh& mesh, size_t i, size_t j) {
+    return mesh.area[i] < mesh.area[j] || (mesh.area[i] == mesh.area[j] && i < j);
+  }
+  // The entry of the element not integrated over: F_ba = F_ab A_a / A_b.
+  static double reciprocal(double f_ab, double area_a, double area_b) {
+    return f_ab * (area_a / area_b);
+  }
 
  private:
+  // The highest fixed Gauss order tried on separated unoccluded pairs (then adaptive).
+  static constexpr int kMaxFixedOrder = 16;
   const Scene& scene_;
   const Mesh& mesh_;
   ExactOptions options_;
@@ -79,6 +103,11 @@ class ExactFormFactors final : public FormFactorMethod {
   std::unique_ptr<Visibility> visibility_;  // rays mode only
   std::unique_ptr<ShaftCuller> shafts_;     // clip mode (unless nothing can occlude)
   std::vector<Vec3> occluder_normal_;       // clip mode: unit normal of every input polygon
+  std::vector<double> radius_;              // each element's largest centroid-corner distance
+  FixedOrderRule order_rule_;               // Bernstein-bound Gauss order for separated pairs
+  ElementRules element_rules_;              // Gauss rules of every element (double-area pairs)
+  double unoccluded(size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to,
+                    double kept, RowCost& cost) const;
   double clipped_pair(size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to,
                       std::span<const Occluder> occluders, double floor, RowCost& cost) const;
 };

@@ -110,16 +110,21 @@ double visible_form_factor(const Vec3& x, const Vec3& n, std::span<const Vec3> t
   };
   double area_j = 0.0;
   bool shadowed = false;
+  // The cone from x over P_j: for a counter-clockwise P_j with x in front, its inside is where
+  // dot(c_k, y) >= dot(c_k, x), c_k = (v_{k+1} - x) x (v_k - x); the same for every occluder.
+  s.cone.resize(m);
+  s.cone_offset.resize(m);
+  for (size_t k = 0; k < m; ++k) {
+    s.cone[k] = glm::cross(to[(k + 1) % m] - x, to[k] - x);
+    s.cone_offset[k] = glm::dot(s.cone[k], x);
+  }
   for (const Occluder& o : occluders) {
     // Seen edge-on from x (x in its plane): it blocks a set of directions of measure zero.
     if (std::abs(glm::dot(o.normal, x - o.corners[0])) <= epsilon) continue;
-    // The part of O in the cone from x over P_j: for a counter-clockwise P_j with x in front,
-    // the cone's inside is where dot(c_k, y - x) >= 0, c_k = (v_{k+1} - x) x (v_k - x).
+    // The part of O in the cone from x over P_j.
     s.clipped.assign(o.corners.begin(), o.corners.end());
-    for (size_t k = 0; k < m && s.clipped.size() >= 3; ++k) {
-      const Vec3 c = glm::cross(to[(k + 1) % m] - x, to[k] - x);
-      clip3(s.clipped, c, glm::dot(c, x), s.tmp, s.height);
-    }
+    for (size_t k = 0; k < m && s.clipped.size() >= 3; ++k)
+      clip3(s.clipped, s.cone[k], s.cone_offset[k], s.tmp, s.height);
     if (s.clipped.size() < 3) continue;
     // ... and in front of P_j's plane: on the segments from x to P_j.
     clip3(s.clipped, to_normal, glm::dot(to_normal, origin), s.tmp, s.height);

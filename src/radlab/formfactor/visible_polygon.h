@@ -39,9 +39,10 @@ struct Occluder {
 struct VisibleScratch {
   std::vector<Vec3> clipped, tmp, piece3, lambert;                // 3D work polygons
   std::vector<glm::dvec2> shadow, pieces, next, rest, out, tmp2;  // 2D, in P_j's plane
-  std::vector<size_t> first, next_first;
-  std::vector<double> height;  // signed heights of a polygon's corners  // offsets of the pieces in
-                               // `pieces` / `next`
+  std::vector<size_t> first, next_first;  // offsets of the pieces in `pieces` / `next`
+  std::vector<double> height;             // signed heights of a polygon's corners
+  std::vector<Vec3> cone;                 // the planes of the cone from x over P_j ...
+  std::vector<double> cone_offset;        // ... and their offsets
 };
 
 // F_{dx -> visible part of `to`} for x with unit normal n. `occluders` may include polygons that

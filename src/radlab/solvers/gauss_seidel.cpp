@@ -51,7 +51,7 @@ class GaussSeidelSolver final : public Solver {
     const int channels = B_.channels();
     double gathered[3] = {0.0, 0.0, 0.0};
     double self = 0.0;
-    system_->with_row(i, [&](const auto* F) {
+    system_->with_compact_row(i, [&](const auto& F) {
       kernels::gather(F, B_, gathered);
       self = double(F[i]);
     });

@@ -107,6 +107,12 @@ void InterleavedSolver::init(const System& system) {
 }
 
 void InterleavedSolver::start_shooting() {
+  // The session just gathered keeps its members in index order (see shoot_step); removals from
+  // older sessions keep theirs.
+  if (!sessions_.empty()) {
+    auto& members = sessions_.back()->members;
+    std::sort(members.begin(), members.end());
+  }
   gathering_ = false;
   shots_done_ = 0;
   ++session_count_;
@@ -165,20 +171,27 @@ void InterleavedSolver::shoot_step() {
     if (any) excess.push_back(ex);
   }
 
-  const double Ai = core_.system().area()[i];
-  core_.system().with_row(i, [&](const auto* F) {
+  const System& system = core_.system();
+  const double Ai = system.area()[i];
+  const double* inverse_area = system.inverse_area().data();
+  const Radiosity& rho = system.reflectance();
+  core_.system().with_compact_row(i, [&](const auto& F) {
     best_ = core_.shoot(F, i, s, true, dff_.data());
     // One pass over the members: correct each (an element is a member of one session only, so
     // its value is then final) and see whether it now leads (only if a correction was negative).
+    // Members are in index order (start_shooting sorts them), so the pass walks the arrays
+    // forward; each member's correction is its own, so the order changes no bits.
     const size_t leader = best_.index;
     bool rescan = false;
     kernels::Argmax lead = best_;
-    for (const Excess& ex : excess)
+    for (const Excess& ex : excess) {
+      double w[3] = {0.0, 0.0, 0.0};  // A_i e_c, the same product for every member
+      for (int c = 0; c < channels; ++c) w[c] = Ai * ex.e[c];
       for (size_t r : ex.session->members) {
-        const double g = double(F[r]) * core_.system().inverse_area()[r];
+        const double g = double(F[r]) * inverse_area[r];
         for (int c = 0; c < channels; ++c) {
           // The kernels' arithmetic (kernels.h): (F_ir / A_r) (A_i e_c rho_cr).
-          const double undelivered = g * ((Ai * ex.e[c]) * core_.system().reflectance().at(c, r));
+          const double undelivered = g * (w[c] * rho.at(c, r));
           core_.add_unshot(c, r, -undelivered);
           advance_.at(c, r) -= undelivered;
         }
@@ -186,6 +199,7 @@ void InterleavedSolver::shoot_step() {
         const double p = core_.priority(r);
         if (p > lead.value || (p == lead.value && r < lead.index)) lead = {p, r};
       }
+    }
     // If the maximum itself was corrected, any element may lead now.
     best_ = rescan ? core_.max_priority() : lead;
   });
@@ -257,7 +271,8 @@ void InterleavedSolver::gather_step() {
   Session& q = *sessions_.back();
   const int channels = core_.channels();
   double gathered[3] = {0.0, 0.0, 0.0};
-  core_.system().with_row(r, [&](const auto* F) { kernels::gather(F, q.snapshot, gathered); });
+  core_.system().with_compact_row(r,
+                                  [&](const auto& F) { kernels::gather(F, q.snapshot, gathered); });
   const System& system = core_.system();
   for (int c = 0; c < channels; ++c) {
     const double B_new = system.emission().at(c, r) + system.reflectance().at(c, r) * gathered[c];

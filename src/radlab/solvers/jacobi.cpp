@@ -46,7 +46,7 @@ class JacobiSolver final : public Solver {
   StepInfo step() override {
     const size_t i = next_;
     double gathered[3] = {0.0, 0.0, 0.0};
-    system_->with_row(i, [&](const auto* F) { kernels::gather(F, previous_, gathered); });
+    system_->with_compact_row(i, [&](const auto& F) { kernels::gather(F, previous_, gathered); });
     for (int c = 0; c < current_.channels(); ++c) {
       const double target =
           system_->emission().at(c, i) + system_->reflectance().at(c, i) * gathered[c];

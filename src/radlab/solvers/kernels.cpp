@@ -8,9 +8,14 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
+#include <string>
+#include <type_traits>
 #include <vector>
+
+#include "radlab/core/error.h"
 
 // The AVX2 versions use GCC/Clang vector extensions inside functions compiled for AVX2 only;
 // their 32-byte vector values never cross a call boundary (every helper is always_inline), so
@@ -47,14 +52,15 @@ inline double clamped(double v) {
 // ------------------------------------------------------------------------------------------
 // Scalar versions: the definition of the arithmetic.
 
+// Adds F[j] x_c[j] to lane j mod 16 of s[c] for j in [lo, hi): a row's gather is this over
+// [0, n) (or over each stored run of a sparse row) followed by combine().
 template <class T, int C, bool kClamp>
-void gather_scalar(const T* F, size_t n, const double* const* x, double* out) {
-  double s[C][kLanes] = {};
-  for (size_t j = 0; j < n; ++j) {
+void gather_lanes_scalar(const T* F, size_t lo, size_t hi, const double* const* x,
+                         double (*s)[kLanes]) {
+  for (size_t j = lo; j < hi; ++j) {
     const double f = double(F[j]);
     for (int c = 0; c < C; ++c) s[c][j % kLanes] += f * clamped<kClamp>(x[c][j]);
   }
-  for (int c = 0; c < C; ++c) out[c] = combine(s[c]);
 }
 
 template <class T, int C>
@@ -189,27 +195,36 @@ RADLAB_AVX2_INLINE v4d vclamped(v4d v) {
   return v;
 }
 
+// gather_lanes_scalar's sums, 16 columns at a time from the first multiple of 16 in [lo, hi):
+// each lane still adds its columns in increasing order, so the lane sums are the same bits.
 template <class T, int C, bool kClamp>
-RADLAB_AVX2 void gather_avx2(const T* F, size_t n, const double* const* x, double* out) {
-  v4d acc[C][4];
-  for (int c = 0; c < C; ++c)
-    for (int q = 0; q < 4; ++q) acc[c][q] = splat(0.0);
-  size_t j = 0;
-  for (; j + kLanes <= n; j += kLanes) {
-    __builtin_prefetch(F + j + kPrefetch);
-    v4d f[4];
-    for (int q = 0; q < 4; ++q) f[q] = load(F + j + 4 * q);
-    for (int c = 0; c < C; ++c)
-      for (int q = 0; q < 4; ++q) acc[c][q] += f[q] * vclamped<kClamp>(load(x[c] + j + 4 * q));
-  }
-  double s[C][kLanes];
-  for (int c = 0; c < C; ++c)
-    for (int q = 0; q < 4; ++q) std::memcpy(&s[c][4 * q], &acc[c][q], sizeof(v4d));
-  for (; j < n; ++j) {
+RADLAB_AVX2 void gather_lanes_avx2(const T* F, size_t lo, size_t hi, const double* const* x_in,
+                                   double (*s)[kLanes]) {
+  const double* x[C];  // local copies: the stores below may alias any memory
+  for (int c = 0; c < C; ++c) x[c] = x_in[c];
+  size_t j = lo;
+  for (; j < hi && j % kLanes != 0; ++j) {
     const double f = double(F[j]);
     for (int c = 0; c < C; ++c) s[c][j % kLanes] += f * clamped<kClamp>(x[c][j]);
   }
-  for (int c = 0; c < C; ++c) out[c] = combine(s[c]);
+  if (j + kLanes <= hi) {
+    v4d acc[C][4];
+    for (int c = 0; c < C; ++c)
+      for (int q = 0; q < 4; ++q) acc[c][q] = load(&s[c][4 * q]);
+    for (; j + kLanes <= hi; j += kLanes) {
+      __builtin_prefetch(F + j + kPrefetch);
+      v4d f[4];
+      for (int q = 0; q < 4; ++q) f[q] = load(F + j + 4 * q);
+      for (int c = 0; c < C; ++c)
+        for (int q = 0; q < 4; ++q) acc[c][q] += f[q] * vclamped<kClamp>(load(x[c] + j + 4 * q));
+    }
+    for (int c = 0; c < C; ++c)
+      for (int q = 0; q < 4; ++q) store(&s[c][4 * q], acc[c][q]);
+  }
+  for (; j < hi; ++j) {
+    const double f = double(F[j]);
+    for (int c = 0; c < C; ++c) s[c][j % kLanes] += f * clamped<kClamp>(x[c][j]);
+  }
 }
 
 template <class T, int C>
@@ -405,6 +420,58 @@ RADLAB_AVX2 Argmax shoot_avx2(const T* F, size_t lo, size_t hi, const double* k,
   }
   return best;
 }
+// The priorities of 4 elements from q, as priority<C, kOffset> forms them (the leading 0 + is
+// exact: |v| >= +0).
+template <int C, bool kOffset>
+RADLAB_AVX2_INLINE v4d priority4(size_t q, const Lanes<C>& l) {
+  v4d p;
+  for (int c = 0; c < C; ++c) {
+    v4d a;
+    if constexpr (kOffset)
+      a = vabs(load(l.u[c] + q) + load(l.o[c] + q));
+    else
+      a = vabs(load(l.u[c] + q));
+    p = c == 0 ? a : p + a;
+  }
+  return p * load(l.area + q);
+}
+
+// max_priority_scan's result (the largest priority, its lowest index) by blocks of 64 as the shot
+// finds it: each block's maximum, the first block holding the largest, then its first index.
+template <int C, bool kOffset>
+RADLAB_AVX2 Argmax max_priority_avx2(size_t lo, size_t hi, const ShotTargets& t) {
+  const Lanes<C> l(t);
+  BlockBest block;
+  for (size_t j = lo; j < hi;) {
+    const size_t end = std::min(hi, j + kBlock);
+    v4d m0 = splat(-1.0), m1 = splat(-1.0);
+    size_t q = j;
+    for (; q + 8 <= end; q += 8) {
+      m0 = vmax(priority4<C, kOffset>(q, l), m0);
+      m1 = vmax(priority4<C, kOffset>(q + 4, l), m1);
+    }
+    if (q + 4 <= end) {
+      m0 = vmax(priority4<C, kOffset>(q, l), m0);
+      q += 4;
+    }
+    const v4d m = vmax(m0, m1);
+    double mm = std::fmax(std::fmax(m[0], m[1]), std::fmax(m[2], m[3]));
+    for (; q < end; ++q) {
+      const double p = priority<C, kOffset>(t, q);
+      if (p > mm) mm = p;
+    }
+    if (mm > block.value) block = {mm, j, end};
+    j = end;
+  }
+  Argmax best;
+  if (block.start != kNone)
+    for (size_t j = block.start; j < block.end; ++j)
+      if (priority<C, kOffset>(t, j) == block.value) {
+        best = {block.value, j};
+        break;
+      }
+  return best;
+}
 #endif  // RADLAB_HAVE_AVX2_KERNELS
 
 bool detect_avx2() {
@@ -416,30 +483,72 @@ bool detect_avx2() {
 #endif
 }
 
+// RADLAB_KERNELS: "scalar" forces the scalar versions; unset, empty or "auto" leaves the choice
+// to the CPU. Anything else is refused (check_kernel_environment) rather than ignored.
+const char* kernel_environment() {
+  const char* value = std::getenv("RADLAB_KERNELS");
+  return value ? value : "";
+}
+
 std::atomic<bool>& vector_enabled() {
-  static std::atomic<bool> enabled{detect_avx2()};
+  static std::atomic<bool> enabled{detect_avx2() &&
+                                   std::strcmp(kernel_environment(), "scalar") != 0};
   return enabled;
 }
 
 // ------------------------------------------------------------------------------------------
 // Dispatch on channels and instruction set.
 
-template <class T, bool kClamp>
-void gather_dispatch(const T* F, const Radiosity& x, double* out) {
+// The column origin of a run: origin[j] is the run's value for column j (first <= j). Formed by
+// integer arithmetic, as the pointer itself may lie before the values' array; only columns of the
+// run are read through it.
+template <class T>
+const T* column_origin(const T* values, size_t first) {
+  return reinterpret_cast<const T*>(reinterpret_cast<uintptr_t>(values) - first * sizeof(T));
+}
+
+// Calls lanes(F, lo, hi) over the row's columns: [0, n) of a dense row, each stored run of a
+// sparse one (with F the run's column origin).
+template <class T, class Fn>
+void for_each_stored(const T* F, size_t n, Fn&& lanes) {
+  lanes(F, size_t(0), n);
+}
+template <class T, class Fn>
+void for_each_stored(const RunRow<T>& F, size_t, Fn&& lanes) {
+  for (size_t k = 0; k < F.runs; ++k) {
+    const size_t first = F.first(k);
+    lanes(column_origin(F.value + F.begin(k), first), first, first + F.count(k));
+  }
+}
+
+template <int C, bool kClamp, class Row>
+void gather_channels(const Row& F, size_t n, const double* const* x, double* out) {
+  double s[C][kLanes] = {};
+#ifdef RADLAB_HAVE_AVX2_KERNELS
+  if (vector_enabled().load(std::memory_order_relaxed)) {
+    for_each_stored(F, n, [&](const auto* row, size_t lo, size_t hi) {
+      gather_lanes_avx2<std::remove_cvref_t<decltype(*row)>, C, kClamp>(row, lo, hi, x, s);
+    });
+    for (int c = 0; c < C; ++c) out[c] = combine(s[c]);
+    return;
+  }
+#endif
+  for_each_stored(F, n, [&](const auto* row, size_t lo, size_t hi) {
+    gather_lanes_scalar<std::remove_cvref_t<decltype(*row)>, C, kClamp>(row, lo, hi, x, s);
+  });
+  for (int c = 0; c < C; ++c) out[c] = combine(s[c]);
+}
+
+template <bool kClamp, class Row>
+void gather_dispatch(const Row& F, const Radiosity& x, double* out) {
   const size_t n = x.size();
   const double* ptr[3] = {x.channel(0).data(), nullptr, nullptr};
   if (x.channels() == 3) {
     ptr[1] = x.channel(1).data();
     ptr[2] = x.channel(2).data();
   }
-#ifdef RADLAB_HAVE_AVX2_KERNELS
-  if (vector_enabled().load(std::memory_order_relaxed)) {
-    if (x.channels() == 1) return gather_avx2<T, 1, kClamp>(F, n, ptr, out);
-    return gather_avx2<T, 3, kClamp>(F, n, ptr, out);
-  }
-#endif
-  if (x.channels() == 1) return gather_scalar<T, 1, kClamp>(F, n, ptr, out);
-  return gather_scalar<T, 3, kClamp>(F, n, ptr, out);
+  if (x.channels() == 1) return gather_channels<1, kClamp>(F, n, ptr, out);
+  gather_channels<3, kClamp>(F, n, ptr, out);
 }
 
 template <class T>
@@ -535,15 +644,42 @@ Argmax shoot_dispatch(const T* F, size_t lo, size_t hi, const double* k, double 
   return result;
 }
 
+// A shot on a sparse row's stored runs: each run's receivers get the dense kernel over the run
+// (the same arithmetic, so the same bits); the receivers in the gaps would get exactly nothing
+// (kernels_row.h) and are not touched. With select, one scan of [lo, hi) afterwards finds the
+// largest priority and its lowest index: the same values, so the same result as the dense pass's
+// fused selection. (Selecting per run and scanning only the gaps was 2.2x slower on rows of
+// 64-column runs: each run's block search and the scalar gap scans cost more than one vector
+// scan of the state, which is in L2.)
+template <class T>
+Argmax shoot_sparse(const RunRow<T>& F, size_t lo, size_t hi, const double* k, double cs,
+                    const ShotTargets& t, bool select) {
+  for (size_t r = 0; r < F.runs; ++r) {
+    const size_t first = F.first(r);
+    if (first >= hi) break;
+    const size_t a = std::max(first, lo), b = std::min(first + F.count(r), hi);
+    if (a < b) shoot_dispatch(column_origin(F.value + F.begin(r), first), a, b, k, cs, t, false);
+  }
+  return select ? max_priority(lo, hi, t) : Argmax{};
+}
+
 }  // namespace
 
 void gather(const float* F, const Radiosity& x, double* out, bool clamp_negative) {
-  if (clamp_negative) return gather_dispatch<float, true>(F, x, out);
-  gather_dispatch<float, false>(F, x, out);
+  if (clamp_negative) return gather_dispatch<true>(F, x, out);
+  gather_dispatch<false>(F, x, out);
 }
 void gather(const double* F, const Radiosity& x, double* out, bool clamp_negative) {
-  if (clamp_negative) return gather_dispatch<double, true>(F, x, out);
-  gather_dispatch<double, false>(F, x, out);
+  if (clamp_negative) return gather_dispatch<true>(F, x, out);
+  gather_dispatch<false>(F, x, out);
+}
+void gather(const RunRow<float>& F, const Radiosity& x, double* out, bool clamp_negative) {
+  if (clamp_negative) return gather_dispatch<true>(F, x, out);
+  gather_dispatch<false>(F, x, out);
+}
+void gather(const RunRow<double>& F, const Radiosity& x, double* out, bool clamp_negative) {
+  if (clamp_negative) return gather_dispatch<true>(F, x, out);
+  gather_dispatch<false>(F, x, out);
 }
 
 void gather_scatter(const float* F, const Radiosity& x, double* out, Radiosity& z,
@@ -564,6 +700,15 @@ Argmax shoot(const double* F, size_t lo, size_t hi, const double* k, double cove
   return shoot_dispatch(F, lo, hi, k, coverage_scale, targets, select);
 }
 
+Argmax shoot(const RunRow<float>& F, size_t lo, size_t hi, const double* k, double coverage_scale,
+             const ShotTargets& targets, bool select) {
+  return shoot_sparse(F, lo, hi, k, coverage_scale, targets, select);
+}
+Argmax shoot(const RunRow<double>& F, size_t lo, size_t hi, const double* k, double coverage_scale,
+             const ShotTargets& targets, bool select) {
+  return shoot_sparse(F, lo, hi, k, coverage_scale, targets, select);
+}
+
 namespace {
 
 template <int C, bool kOffset>
@@ -579,6 +724,15 @@ Argmax max_priority_scan(size_t lo, size_t hi, const ShotTargets& t) {
 }  // namespace
 
 Argmax max_priority(size_t lo, size_t hi, const ShotTargets& t) {
+#ifdef RADLAB_HAVE_AVX2_KERNELS
+  if (vector_enabled().load(std::memory_order_relaxed)) {
+    if (t.offset[0])
+      return t.channels == 1 ? max_priority_avx2<1, true>(lo, hi, t)
+                             : max_priority_avx2<3, true>(lo, hi, t);
+    return t.channels == 1 ? max_priority_avx2<1, false>(lo, hi, t)
+                           : max_priority_avx2<3, false>(lo, hi, t);
+  }
+#endif
   if (t.offset[0])
     return t.channels == 1 ? max_priority_scan<1, true>(lo, hi, t)
                            : max_priority_scan<3, true>(lo, hi, t);
@@ -600,6 +754,16 @@ void unshot_power(const ShotTargets& t, size_t n, bool clamp_negative, double* o
 
 size_t set_parallel_shot_minimum(size_t receivers) {
   return parallel_minimum().exchange(receivers);
+}
+
+bool vector_kernels() {
+  return vector_enabled().load();
+}
+
+void check_kernel_environment() {
+  const std::string value = kernel_environment();
+  if (!value.empty() && value != "auto" && value != "scalar")
+    throw UsageError("RADLAB_KERNELS must be 'scalar' or 'auto' (or unset), got '" + value + "'");
 }
 
 bool use_vector_kernels(bool enable) {

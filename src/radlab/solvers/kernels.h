@@ -13,6 +13,7 @@
 #include <limits>
 
 #include "radlab/core/radiosity.h"
+#include "radlab/solvers/kernels_row.h"
 
 namespace radlab::kernels {
 
@@ -20,6 +21,9 @@ namespace radlab::kernels {
 // count as zero (the clamped regather of overshooting).
 void gather(const float* F, const Radiosity& x, double* out, bool clamp_negative = false);
 void gather(const double* F, const Radiosity& x, double* out, bool clamp_negative = false);
+// The same on a sparse row's stored runs (kernels_row.h): the same bits as on its dense form.
+void gather(const RunRow<float>& F, const Radiosity& x, double* out, bool clamp_negative = false);
+void gather(const RunRow<double>& F, const Radiosity& x, double* out, bool clamp_negative = false);
 
 // out[c] = sum_j F[j] * x_c[j] (as gather) and, in the same pass, z_c[j] += a[c] * F[j] for every
 // j: the row's contribution to F^T z. One streaming pass gives both A F p and (A F)^T p, the
@@ -75,6 +79,13 @@ Argmax shoot(const float* F, size_t lo, size_t hi, const double* k, double cover
              const ShotTargets& targets, bool select);
 Argmax shoot(const double* F, size_t lo, size_t hi, const double* k, double coverage_scale,
              const ShotTargets& targets, bool select);
+// The same on a sparse row's stored runs (kernels_row.h): only stored receivers are updated (the
+// others would receive exactly nothing); with select, max_priority over [lo, hi) afterwards (dB
+// is read, not the row). The same bits and index as on the dense form.
+Argmax shoot(const RunRow<float>& F, size_t lo, size_t hi, const double* k, double coverage_scale,
+             const ShotTargets& targets, bool select);
+Argmax shoot(const RunRow<double>& F, size_t lo, size_t hi, const double* k, double coverage_scale,
+             const ShotTargets& targets, bool select);
 
 // Shots over at least set_parallel_shot_minimum() receivers are split over threads in pieces of
 // kShotChunk receivers at fixed boundaries: the same bits on any number of threads. Off by default
@@ -91,8 +102,13 @@ Argmax max_priority(size_t lo, size_t hi, const ShotTargets& targets);
 // out[c] = sum_j A[j] * dB_c[j] (the unshot power); with clamp_negative only positive dB counts.
 void unshot_power(const ShotTargets& targets, size_t n, bool clamp_negative, double* out);
 
-// Chooses the AVX2 versions (the default where the CPU has AVX2) or the scalar ones. For tests
-// and benchmarks; returns whether the vector versions are now in use.
+// Chooses the AVX2 versions (the default where the CPU has AVX2, unless the environment variable
+// RADLAB_KERNELS is "scalar" at start-up) or the scalar ones. For tests, benchmarks and
+// `radlab --scalar-kernels`; returns whether the vector versions are now in use.
 bool use_vector_kernels(bool enable);
+// Whether the AVX2 versions are in use.
+bool vector_kernels();
+// Throws UsageError when RADLAB_KERNELS holds anything but "scalar", "auto" or nothing.
+void check_kernel_environment();
 
 }  // namespace radlab::kernels

@@ -120,7 +120,8 @@ class OvershootingSolver final : public Solver {
       const size_t i = best_.index;
       for (int c = 0; c < channels; ++c)
         s[c] = core_.shooter_unshot(c, i) + core_.shooter_reflectance(c, i) * ambient[size_t(c)];
-      core_.system().with_shooter_row(i, [&](const auto* F) { core_.shoot(F, i, s, false); });
+      core_.system().with_compact_shooter_row(i,
+                                              [&](const auto& F) { core_.shoot(F, i, s, false); });
       return {};
     }
     // Regather: select by the power the shot would carry if each element's last overshoot
@@ -135,7 +136,7 @@ class OvershootingSolver final : public Solver {
     }
     const size_t i = best_.index;
     for (int c = 0; c < channels; ++c) s[c] = core_.shooter_unshot(c, i);
-    core_.system().with_shooter_row(i, [&](const auto* F) {
+    core_.system().with_compact_shooter_row(i, [&](const auto& F) {
       double gathered[3] = {0.0, 0.0, 0.0};
       kernels::gather(F, core_.unshot(), gathered, options_.clamp);
       for (int c = 0; c < channels; ++c) {

@@ -36,7 +36,8 @@ class ShootingSolver final : public Solver {
       if (!core_.shooter_has_unshot(i)) continue;
       double s[3] = {0.0, 0.0, 0.0};
       for (int c = 0; c < core_.channels(); ++c) s[c] = core_.shooter_unshot(c, i);
-      core_.system().with_shooter_row(i, [&](const auto* F) { core_.shoot(F, i, s, false); });
+      core_.system().with_compact_shooter_row(i,
+                                              [&](const auto& F) { core_.shoot(F, i, s, false); });
       next_ = (i + 1) % n;
       return {};
     }

@@ -66,8 +66,8 @@ kernels::ShotTargets ShootingCore::targets() const {
   return t;
 }
 
-template <class T>
-kernels::Argmax ShootingCore::shoot(const T* F, size_t i, const double* s, bool select,
+template <class Row>
+kernels::Argmax ShootingCore::shoot(const Row& F, size_t i, const double* s, bool select,
                                     double* coverage) {
   if (system_->two_level()) {
     if (coverage)
@@ -106,8 +106,8 @@ kernels::Argmax ShootingCore::shoot(const T* F, size_t i, const double* s, bool 
   return best;
 }
 
-template <class T>
-kernels::Argmax ShootingCore::shoot_patch(const T* F, size_t p, const double* s, bool select) {
+template <class Row>
+kernels::Argmax ShootingCore::shoot_patch(const Row& F, size_t p, const double* s, bool select) {
   const Patches& patches = system_->shooters();
   const auto members = patches.members(p);
   const size_t m = members.size();
@@ -137,8 +137,14 @@ kernels::Argmax ShootingCore::shoot_patch(const T* F, size_t p, const double* s,
   return max_priority();
 }
 
-template kernels::Argmax ShootingCore::shoot(const float*, size_t, const double*, bool, double*);
-template kernels::Argmax ShootingCore::shoot(const double*, size_t, const double*, bool, double*);
+template kernels::Argmax ShootingCore::shoot(const float* const&, size_t, const double*, bool,
+                                             double*);
+template kernels::Argmax ShootingCore::shoot(const double* const&, size_t, const double*, bool,
+                                             double*);
+template kernels::Argmax ShootingCore::shoot(const kernels::RunRow<float>&, size_t, const double*,
+                                             bool, double*);
+template kernels::Argmax ShootingCore::shoot(const kernels::RunRow<double>&, size_t, const double*,
+                                             bool, double*);
 
 double ShootingCore::shooter_unshot(int c, size_t p) const {
   if (!system_->two_level()) return dB_.at(c, p);

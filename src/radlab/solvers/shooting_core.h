@@ -60,13 +60,15 @@ class ShootingCore {
   // for A_j sum_c |dB_cj|.
   void set_priority_offset(const Radiosity* offset) { offset_ = offset; }
 
-  // Shoots s[c] from shooter i, given its row (read through System::with_shooter_row by the
-  // caller, which counts it). With select, returns the element with the largest priority
-  // A_j sum_c |dB_cj| (+ o_cj with an offset; o_i as it is at the call) afterwards (lowest index
-  // among equals): the same value and index as max_priority() after the shot. With coverage, adds
-  // F_ji to coverage[j] for every receiver j != i (Wu & Wang's dff; element shooters only).
-  template <class T>
-  kernels::Argmax shoot(const T* F, size_t i, const double* s, bool select,
+  // Shoots s[c] from shooter i, given its row (read through System::with_shooter_row or
+  // with_compact_shooter_row by the caller, which counts it): Row is const T* (n values) or
+  // kernels::RunRow<T> (a sparse row's stored runs; the same bits). With select, returns the
+  // element with the largest priority A_j sum_c |dB_cj| (+ o_cj with an offset; o_i as it is at the
+  // call) afterwards (lowest index among equals): the same value and index as max_priority() after
+  // the shot. With coverage, adds F_ji to coverage[j] for every receiver j != i (Wu & Wang's dff;
+  // element shooters only).
+  template <class Row>
+  kernels::Argmax shoot(const Row& F, size_t i, const double* s, bool select,
                         double* coverage = nullptr);
 
   // The shooter with the largest priority, by a full scan.
@@ -104,8 +106,8 @@ class ShootingCore {
 
  private:
   kernels::ShotTargets targets() const;
-  template <class T>
-  kernels::Argmax shoot_patch(const T* F, size_t p, const double* s, bool select);
+  template <class Row>
+  kernels::Argmax shoot_patch(const Row& F, size_t p, const double* s, bool select);
 
   // Runs shorter than this on average are not worth a vector loop each: the kernels then read
   // the reflectance per element instead.

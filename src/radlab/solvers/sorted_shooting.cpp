@@ -86,7 +86,8 @@ class SortedShootingSolver final : public Solver {
     const size_t i = best_.index;
     double s[3] = {0.0, 0.0, 0.0};
     for (int c = 0; c < core_.channels(); ++c) s[c] = options_.omega * core_.shooter_unshot(c, i);
-    core_.system().with_shooter_row(i, [&](const auto* F) { best_ = core_.shoot(F, i, s, true); });
+    core_.system().with_compact_shooter_row(
+        i, [&](const auto& F) { best_ = core_.shoot(F, i, s, true); });
     return {};
   }
 

@@ -33,6 +33,7 @@
 #include "radlab/formfactor/matrix.h"
 #include "radlab/formfactor/parallel_row.h"
 #include "radlab/scene/mesh.h"
+#include "radlab/solvers/kernels_row.h"
 #include "radlab/solvers/patches.h"
 
 namespace radlab {
@@ -78,6 +79,25 @@ class System {
     fn(static_cast<const double*>(scratch.data()));
   }
 
+  // As with_row, but a row that a sparse matrix stores in part is handed over as it is stored:
+  // fn(kernels::RunRow<T>) (solvers/kernels_row.h) instead of fn(const T*) with the row expanded
+  // into a scratch row of n values. For kernels that take both (kernels::gather, shoot): the same
+  // bits, without the scratch's fill and clear and without reading the zeros. fn must accept
+  // both kinds (a generic lambda taking `const auto& F`, indexing F[j] only for single entries).
+  template <class Fn>
+  void with_compact_row(size_t i, Fn&& fn) const {
+    if (!matrix_ || !matrix_->sparse() || matrix_->whole_row(i)) return with_row(i, fn);
+    rows_used_.fetch_add(1, std::memory_order_relaxed);
+    pair_evaluations_.fetch_add(size(), std::memory_order_relaxed);
+    const FormFactorMatrix::SparseRow& row = matrix_->sparse_row(i);
+    if (matrix_->precision() == Precision::kFloat)
+      fn(kernels::RunRow<float>{row.run.data(), row.run.size() / 2, row.f32.data(),
+                                row.f32.size()});
+    else
+      fn(kernels::RunRow<double>{row.run.data(), row.run.size() / 2, row.f64.data(),
+                                 row.f64.size()});
+  }
+
   // Shooters: patches on a two-level System, else the elements themselves.
   bool two_level() const { return patch_rows_ != nullptr; }
   const Patches& shooters() const { return *shooters_; }
@@ -89,6 +109,13 @@ class System {
     rows_used_.fetch_add(1, std::memory_order_relaxed);
     pair_evaluations_.fetch_add(size(), std::memory_order_relaxed);
     patch_rows_->visit_row(p, fn);
+  }
+
+  // with_shooter_row, with a sparse matrix's rows handed over as stored (with_compact_row).
+  template <class Fn>
+  void with_compact_shooter_row(size_t p, Fn&& fn) const {
+    if (!patch_rows_) return with_compact_row(p, fn);
+    with_shooter_row(p, fn);
   }
 
   // As above, charging `pairs` pair evaluations instead of n on a two-level System: the row read

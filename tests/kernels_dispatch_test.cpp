@@ -1,0 +1,295 @@
+// The solver kernels' two instruction paths and two row forms give the same bits:
+//   - the AVX2 and the scalar versions (kernels.h: the same operations in the same order, sums
+//     in the same 16 lanes, no fused multiply-adds), for the gather, the gather-scatter and the
+//     priority scan (the shot's own comparison is in tests/shooting_test.cpp), on ranges that start
+//     and end off any vector boundary;
+//   - a sparse row's stored runs (kernels_row.h) and its dense form, for the gather and the shot
+//     (skipping a zero is exact, see kernels_row.h), kernel by kernel and through whole solver
+//     runs on a System over a dense and a sparse matrix with the same entries.
+// Every comparison is bitwise (memcmp): all of these kernels either do elementwise arithmetic or
+// reduce in one fixed order shared by every path, so no tolerance is justified.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "radlab/core/random.h"
+#include "radlab/formfactor/matrix.h"
+#include "radlab/scene/builtin_scenes.h"
+#include "radlab/scene/validate.h"
+#include "radlab/solvers/kernels.h"
+#include "radlab/solvers/registry.h"
+#include "radlab/solvers/system.h"
+
+namespace radlab {
+namespace {
+
+bool same_bits(const double* a, const double* b, size_t n) {
+  return std::memcmp(a, b, n * sizeof(double)) == 0;
+}
+
+// A row of n with gaps: runs of stored values (some of them zero, as a sparse row may store
+// short gaps as zeros) separated by unstored stretches, one of them at the start.
+std::vector<double> row_with_gaps(size_t n, Pcg32& rng) {
+  std::vector<double> row(n, 0.0);
+  size_t j = 5;
+  while (j < n) {
+    const size_t stored = 1 + size_t(rng.next_double() * 60.0);
+    for (size_t q = j; q < std::min(n, j + stored); ++q)
+      row[q] = rng.next_double() < 0.1 ? 0.0 : 1e-3 * (0.1 + rng.next_double());
+    j += stored + 1 + size_t(rng.next_double() * 40.0);
+  }
+  return row;
+}
+
+// Restores the vector kernels when a test ends, whatever it switched to.
+struct VectorGuard {
+  ~VectorGuard() { kernels::use_vector_kernels(true); }
+};
+
+TEST(KernelsDispatch, GatherAndGatherScatterScalarEqualsVector) {
+  VectorGuard guard;
+  if (!kernels::use_vector_kernels(true)) GTEST_SKIP() << "no AVX2 on this CPU";
+  Pcg32 rng(3);
+  for (size_t n : {1u, 15u, 16u, 17u, 333u, 1000u}) {
+    std::vector<float> Ff(n);
+    std::vector<double> Fd(n);
+    for (size_t j = 0; j < n; ++j) {
+      Fd[j] = rng.next_double() * 1e-2;
+      Ff[j] = float(Fd[j]);
+    }
+    for (int C : {1, 3}) {
+      Radiosity x(C, n);
+      for (double& v : x.raw()) v = rng.next_double() - 0.3;  // negatives: the clamp matters
+      const double a[3] = {0.3, -1.7, 2.5};
+      for (bool use_float : {true, false})
+        for (bool clamp : {false, true}) {
+          double out[2][3] = {};
+          for (int vector : {0, 1}) {
+            kernels::use_vector_kernels(vector);
+            if (use_float)
+              kernels::gather(Ff.data(), x, out[vector], clamp);
+            else
+              kernels::gather(Fd.data(), x, out[vector], clamp);
+          }
+          EXPECT_TRUE(same_bits(out[0], out[1], size_t(C)))
+              << "gather n=" << n << " C=" << C << " float=" << use_float << " clamp=" << clamp;
+        }
+      for (bool use_float : {true, false}) {
+        double out[2][3] = {};
+        Radiosity z[2] = {Radiosity(C, n), Radiosity(C, n)};
+        for (int vector : {0, 1}) {
+          for (double& v : z[vector].raw()) v = 0.5;
+          kernels::use_vector_kernels(vector);
+          if (use_float)
+            kernels::gather_scatter(Ff.data(), x, out[vector], z[vector], a);
+          else
+            kernels::gather_scatter(Fd.data(), x, out[vector], z[vector], a);
+        }
+        EXPECT_TRUE(same_bits(out[0], out[1], size_t(C))) << "gather_scatter n=" << n;
+        EXPECT_TRUE(same_bits(z[0].raw().data(), z[1].raw().data(), z[0].raw().size()))
+            << "gather_scatter's scatter n=" << n;
+      }
+    }
+  }
+}
+
+// The shot's arrays, each test case starting from the same values.
+struct ShotState {
+  std::vector<double> dB, coverage, offset;
+  std::vector<double> rho, area, inverse_area;
+  kernels::ShotTargets targets(int C, size_t n, bool coverage_on, bool offsets) {
+    kernels::ShotTargets t;
+    t.channels = C;
+    for (int c = 0; c < C; ++c) {
+      t.unshot[c] = dB.data() + size_t(c) * n;
+      t.reflectance[c] = rho.data() + size_t(c) * n;
+      if (offsets) t.offset[c] = offset.data() + size_t(c) * n;
+    }
+    t.area = area.data();
+    t.inverse_area = inverse_area.data();
+    if (coverage_on) t.coverage = coverage.data();
+    return t;
+  }
+};
+
+ShotState random_state(size_t n, Pcg32& rng) {
+  ShotState s;
+  s.dB.resize(3 * n);
+  s.offset.resize(3 * n);
+  s.rho.resize(3 * n);
+  s.coverage.resize(n);
+  s.area.resize(n);
+  s.inverse_area.resize(n);
+  for (size_t j = 0; j < 3 * n; ++j) {
+    s.dB[j] = rng.next_double() - 0.2;
+    s.offset[j] = 0.1 * rng.next_double();
+    s.rho[j] = rng.next_double();
+  }
+  for (size_t j = 0; j < n; ++j) {
+    s.coverage[j] = rng.next_double();
+    s.area[j] = 0.01 + rng.next_double();
+    s.inverse_area[j] = 1.0 / s.area[j];
+  }
+  return s;
+}
+
+void expect_same(const ShotState& a, const ShotState& b, const kernels::Argmax& ma,
+                 const kernels::Argmax& mb, const std::string& what) {
+  EXPECT_TRUE(same_bits(a.dB.data(), b.dB.data(), a.dB.size())) << what << ": dB";
+  EXPECT_TRUE(same_bits(a.coverage.data(), b.coverage.data(), a.coverage.size()))
+      << what << ": coverage";
+  EXPECT_TRUE(same_bits(&ma.value, &mb.value, 1)) << what << ": the maximum";
+  EXPECT_EQ(ma.index, mb.index) << what << ": its index";
+}
+
+// The scan for the largest priority (after gathers, and after a sparse row's shot): the same value
+// and lowest index on both paths, with ties (equal dB and areas repeated along the array).
+TEST(KernelsDispatch, MaxPriorityScalarEqualsVector) {
+  VectorGuard guard;
+  if (!kernels::use_vector_kernels(true)) GTEST_SKIP() << "no AVX2 on this CPU";
+  Pcg32 rng(29);
+  const size_t n = 301;
+  ShotState state = random_state(n, rng);
+  for (size_t j = 150; j < n; ++j) {  // the second half repeats the first: every maximum is tied
+    state.area[j] = state.area[j - 150];
+    for (int c = 0; c < 3; ++c) state.dB[size_t(c) * n + j] = state.dB[size_t(c) * n + j - 150];
+  }
+  for (int C : {1, 3})
+    for (bool offsets : {false, true})
+      for (auto [lo, hi] : {std::pair<size_t, size_t>{0, n}, {3, 200}, {151, n}, {5, 6}, {9, 9}}) {
+        const kernels::ShotTargets t = state.targets(C, n, false, offsets);
+        kernels::use_vector_kernels(false);
+        const kernels::Argmax want = kernels::max_priority(lo, hi, t);
+        kernels::use_vector_kernels(true);
+        const kernels::Argmax got = kernels::max_priority(lo, hi, t);
+        EXPECT_TRUE(same_bits(&want.value, &got.value, 1))
+            << "C=" << C << " [" << lo << ", " << hi << ")";
+        EXPECT_EQ(want.index, got.index) << "C=" << C << " [" << lo << ", " << hi << ")";
+      }
+}
+
+// A sparse matrix's row and its dense form: gather and shot, both instruction paths, every
+// option of the shot, on ranges cut inside runs and inside gaps.
+TEST(KernelsDispatch, SparseRowEqualsDenseRow) {
+  VectorGuard guard;
+  const bool have_vector = kernels::use_vector_kernels(true);
+  Pcg32 rng(17);
+  const size_t n = 700;
+  for (Precision precision : {Precision::kFloat, Precision::kDouble}) {
+    FormFactorMatrix dense(n, precision), sparse(n, precision, Layout::kSparse);
+    const std::vector<double> values = row_with_gaps(n, rng);
+    dense.set_row(0, values);
+    sparse.set_row(0, values);
+    ASSERT_FALSE(sparse.whole_row(0)) << "the test row must be stored in runs";
+    ASSERT_TRUE(identical_entries(dense, sparse));
+    const FormFactorMatrix::SparseRow& stored = sparse.sparse_row(0);
+    const bool f32 = precision == Precision::kFloat;
+    const kernels::RunRow<float> rf{stored.run.data(), stored.run.size() / 2, stored.f32.data(),
+                                    stored.f32.size()};
+    const kernels::RunRow<double> rd{stored.run.data(), stored.run.size() / 2, stored.f64.data(),
+                                     stored.f64.size()};
+    for (size_t j = 0; j < n; ++j)
+      ASSERT_EQ(f32 ? double(rf[j]) : rd[j], dense.at(0, j)) << "RunRow[" << j << "]";
+    const ShotState start = random_state(n, rng);
+    for (int vector : {0, 1}) {
+      if (vector && !have_vector) continue;
+      kernels::use_vector_kernels(vector);
+      for (int C : {1, 3}) {
+        Radiosity x(C, n);
+        for (double& v : x.raw()) v = rng.next_double() - 0.3;
+        for (bool clamp : {false, true}) {
+          double want[3] = {}, got[3] = {};
+          if (f32) {
+            kernels::gather(dense.row_f32(0), x, want, clamp);
+            kernels::gather(rf, x, got, clamp);
+          } else {
+            kernels::gather(dense.row_f64(0), x, want, clamp);
+            kernels::gather(rd, x, got, clamp);
+          }
+          EXPECT_TRUE(same_bits(want, got, size_t(C)))
+              << "gather C=" << C << " clamp=" << clamp << " vector=" << vector;
+        }
+        const double k[3] = {0.7, -0.3, 1.9};
+        for (bool select : {false, true})
+          for (bool coverage : {false, true})
+            for (bool offsets : {false, true})
+              for (auto [lo, hi] : {std::pair<size_t, size_t>{0, n}, {0, 3}, {7, 450}, {101, n}}) {
+                ShotState a = start, b = start;
+                const kernels::ShotTargets ta = a.targets(C, n, coverage, offsets);
+                const kernels::ShotTargets tb = b.targets(C, n, coverage, offsets);
+                const kernels::Argmax ma =
+                    f32 ? kernels::shoot(dense.row_f32(0), lo, hi, k, 0.37, ta, select)
+                        : kernels::shoot(dense.row_f64(0), lo, hi, k, 0.37, ta, select);
+                const kernels::Argmax mb = f32 ? kernels::shoot(rf, lo, hi, k, 0.37, tb, select)
+                                               : kernels::shoot(rd, lo, hi, k, 0.37, tb, select);
+                expect_same(a, b, ma, mb,
+                            "shot C=" + std::to_string(C) + " [" + std::to_string(lo) + ", " +
+                                std::to_string(hi) + ") select=" + std::to_string(select) +
+                                " coverage=" + std::to_string(coverage) + " offsets=" +
+                                std::to_string(offsets) + " vector=" + std::to_string(vector));
+              }
+      }
+    }
+  }
+}
+
+// Whole runs: the solvers that read rows through System::with_compact_row give the same
+// solution bits on a sparse matrix as on the dense one with the same entries.
+TEST(KernelsDispatch, SolversOnSparseMatrixEqualDense) {
+  for (const std::string scene_name : {"cornell", "cube"}) {
+    Scene scene = make_builtin_scene(scene_name);
+    validate_scene(scene);
+    const Mesh mesh = build_mesh(scene, {3, 0.0});
+    const size_t n = mesh.size();
+    // Reciprocal entries with gaps: A_i F_ij = A_j F_ji = g_ij, zero for a third of the pairs
+    // in blocks (culled or occluded pairs), rows summing to ~0.8.
+    FormFactorMatrix dense(n, Precision::kFloat), sparse(n, Precision::kFloat, Layout::kSparse);
+    Pcg32 rng(5);
+    std::vector<std::vector<double>> rows(n, std::vector<double>(n, 0.0));
+    for (size_t i = 0; i < n; ++i)
+      for (size_t j = i + 1; j < n; ++j) {
+        if ((i / 7 + j / 5) % 3 == 0) continue;
+        const double g = 2.4 * rng.next_double() * std::min(mesh.area[i], mesh.area[j]) / double(n);
+        rows[i][j] = g / mesh.area[i];
+        rows[j][i] = g / mesh.area[j];
+      }
+    for (size_t i = 0; i < n; ++i) {
+      dense.set_row(i, rows[i]);
+      sparse.set_row(i, rows[i]);
+    }
+    ASSERT_TRUE(identical_entries(dense, sparse));
+    size_t partial = 0;
+    for (size_t i = 0; i < n; ++i) partial += sparse.whole_row(i) ? 0 : 1;
+    ASSERT_GT(partial, n / 2) << "most rows must be stored in runs for this test to mean much";
+    const System on_dense(scene, mesh, dense), on_sparse(scene, mesh, sparse);
+    const std::vector<std::pair<std::string, std::vector<std::string>>> solvers = {
+        {"jacobi", {}},
+        {"gauss-seidel", {}},
+        {"shooting", {}},
+        {"sorted-shooting", {}},
+        {"overshooting", {}},
+        {"overshooting", {"variant=ambient", "clamp=true"}},
+        {"interleaved", {"shots=20", "gathers=15", "max_sessions=2"}},
+    };
+    for (const auto& [name, params] : solvers) {
+      Radiosity result[2];
+      for (int k = 0; k < 2; ++k) {
+        ParamBag bag = ParamBag::from_assignments(params, name);
+        auto solver = make_solver(name, bag);
+        solver->init(k == 0 ? on_dense : on_sparse);
+        for (int step = 0; step < 300; ++step)
+          if (solver->step().finished) break;
+        result[k] = solver->solution();
+      }
+      ASSERT_EQ(result[0].raw().size(), result[1].raw().size());
+      EXPECT_TRUE(same_bits(result[0].raw().data(), result[1].raw().data(), result[0].raw().size()))
+          << scene_name << ": " << name;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace radlab
