@@ -107,3 +107,13 @@ TEST(ToleranceScale, TolOfReflectedWithNothingReflectedIsAUsageError) {
 
 }  // namespace
 }  // namespace radlab
+
+// run.json's "budget" names the scale of its tolerance: "bound <= 1e-9" alone reads as a claim
+// about the whole solution, which on a tiny-light scene it is not.
+TEST(ToleranceScale, TheBudgetTextNamesItsScale) {
+  radlab::Budget budget;
+  budget.tol = 1e-9;
+  EXPECT_EQ(budget.describe(), "bound <= 1e-09 of max B*");
+  budget.tol_of_reflected = true;
+  EXPECT_EQ(budget.describe(), "bound <= 1e-09 of max(B* - E)");
+}

@@ -33,7 +33,11 @@ std::string Budget::describe() const {
   if (steps) parts.push_back(std::to_string(*steps) + " steps");
   if (rows) parts.push_back(std::to_string(*rows) + " rows");
   if (seconds) parts.push_back(text::format_double(*seconds) + " s");
-  if (tol) parts.push_back("bound <= " + text::format_double(*tol));
+  // The scale is part of the claim: 1e-9 of max B* and 1e-9 of the reflected light differ by
+  // orders of magnitude on a scene with a small bright lamp.
+  if (tol)
+    parts.push_back("bound <= " + text::format_double(*tol) +
+                    (tol_of_reflected ? " of max(B* - E)" : " of max B*"));
   return parts.empty() ? "none" : text::join(parts, ", ");
 }
 
