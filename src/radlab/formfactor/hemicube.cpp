@@ -290,15 +290,11 @@ uint64_t HemicubeFormFactors::rasterise(size_t i, Buffers& buf, RowCost& cost) c
   return rasterise_at(mesh_.centroid[i], mesh_.normal[i], frame_u_[i], int64_t(i), buf, cost);
 }
 
-uint64_t HemicubeFormFactors::rasterise_at(const Vec3& c, const Vec3& n, const Vec3& u,
-                                           int64_t skip, Buffers& buf, RowCost& cost) const {
-  const int R = options_.resolution;
-  const HemicubeLayout layout{R};
-  buf.prepare(layout, mesh_.vertices.size());
-  const Vec3 v = glm::cross(n, u);
+void HemicubeFormFactors::project_vertices(const Vec3& c, const Vec3& n, const Vec3& u,
+                                           const Vec3& v, Buffers& buf) const {
   const double eps = epsilon_;
   const double near = near_;
-  const double half = 0.5 * R;
+  const double half = 0.5 * options_.resolution;
   const double grid = grid_, inverse_grid = 1.0 / grid_;
   auto snap = [&](double x) { return std::nearbyint(x * inverse_grid) * grid; };
 
@@ -335,6 +331,104 @@ uint64_t HemicubeFormFactors::rasterise_at(const Vec3& c, const Vec3& n, const V
       buf.py[k] = p.z / depth * half;
     }
   }
+}
+
+int HemicubeFormFactors::project_onto_face(const Vec3* poly, int m, int f, double near, double half,
+                                           Vec3* clipped, double* X, double* Y) {
+  const FaceAxes& fa = kFaces[size_t(f)];
+  // The face's frustum: d - s >= 0, d + s >= 0, d - t >= 0, (top: d + t, sides: t) >= 0.
+  // All corners outside one of these planes: the element cannot reach the face.
+  bool rejected = false;
+  for (int plane = 0; plane < 4 && !rejected; ++plane) {
+    bool all_out = true;
+    for (int k = 0; k < m && all_out; ++k) {
+      const Vec3& p = poly[k];
+      const double d = fa.d_sign * p[fa.d], sp = p[fa.s], tp = p[fa.t];
+      const double value = plane == 0   ? d - sp
+                           : plane == 1 ? d + sp
+                           : plane == 2 ? d - tp
+                                        : (f == 0 ? d + tp : tp);
+      all_out = value < 0;
+    }
+    rejected = all_out;
+  }
+  if (rejected) return 0;
+  double value[kMaxClip];
+  bool any_near = false;
+  for (int k = 0; k < m; ++k) {
+    value[k] = fa.d_sign * poly[k][fa.d] - near;
+    any_near = any_near || value[k] < 0;
+  }
+  const Vec3* work = poly;
+  int count = m;
+  if (any_near) {
+    count = 0;
+    for (int k = 0; k < m; ++k) {
+      const int q = k + 1 == m ? 0 : k + 1;
+      if (value[k] >= 0) clipped[count++] = poly[k];
+      if ((value[k] >= 0) != (value[q] >= 0)) {
+        // Canonical order of the two ends, so a shared edge is cut at the same point.
+        const bool swap =
+            poly[q].x < poly[k].x ||
+            (poly[q].x == poly[k].x &&
+             (poly[q].y < poly[k].y || (poly[q].y == poly[k].y && poly[q].z < poly[k].z)));
+        const Vec3& P = swap ? poly[q] : poly[k];
+        const Vec3& Q = swap ? poly[k] : poly[q];
+        const double vP = swap ? value[q] : value[k], vQ = swap ? value[k] : value[q];
+        clipped[count++] = P + (vP / (vP - vQ)) * (Q - P);
+      }
+    }
+    work = clipped;
+  }
+  if (count < 3) return 0;
+  // The same arithmetic as project_vertices, so shared corners agree.
+  for (int k = 0; k < count; ++k) {
+    const Vec3& p = work[k];
+    const double d = fa.d_sign * p[fa.d];
+    X[k] = (p[fa.s] / d + 1.0) * half;
+    Y[k] = f == 0 ? (p[fa.t] / d + 1.0) * half : p[fa.t] / d * half;
+  }
+  return count;
+}
+
+void HemicubeFormFactors::resolve_cracks(Buffers& buf) {
+  // Cracks: pixels claimed by candidates of two or more elements (see Candidate).
+  auto& cands = buf.candidates;
+  std::sort(cands.begin(), cands.end(), [](const Candidate& a, const Candidate& b) {
+    return a.pixel != b.pixel ? a.pixel < b.pixel : a.id < b.id;
+  });
+  for (size_t k = 0; k < cands.size();) {
+    size_t end = k;
+    const Candidate* nearest = &cands[k];
+    int elements = 0;
+    for (; end < cands.size() && cands[end].pixel == cands[k].pixel; ++end) {
+      if (end == k || cands[end].id != cands[end - 1].id) ++elements;
+      if (cands[end].w > nearest->w) nearest = &cands[end];
+    }
+    float& d = buf.depth[nearest->pixel];
+    int32_t& it = buf.item[nearest->pixel];
+    const double w = nearest->w;
+    const bool take = d == 0.0f        ? elements >= 2
+                      : it == kNothing ? w >= double(d) * (1.0 - kCandidateMargin)
+                                       : elements >= 2 && w > double(d) * (1.0 + kCandidateMargin);
+    if (take) {
+      d = nearest->w;
+      it = nearest->id;
+    }
+    k = end;
+  }
+}
+
+uint64_t HemicubeFormFactors::rasterise_at(const Vec3& c, const Vec3& n, const Vec3& u,
+                                           int64_t skip, Buffers& buf, RowCost& cost) const {
+  const int R = options_.resolution;
+  const HemicubeLayout layout{R};
+  buf.prepare(layout, mesh_.vertices.size());
+  const Vec3 v = glm::cross(n, u);
+  const double eps = epsilon_;
+  const double near = near_;
+  const double half = 0.5 * R;
+  project_vertices(c, n, u, v, buf);
 
   uint64_t tests = 0;
   double X[kMaxClip], Y[kMaxClip];
@@ -389,87 +483,12 @@ uint64_t HemicubeFormFactors::rasterise_at(const Vec3& c, const Vec3& n, const V
     // cut at the same point for both elements and stays watertight.
     for (int k = 0; k < m; ++k) poly[k] = buf.local[corners[size_t(k)]];
     for (int f = 0; f < 5; ++f) {
-      const FaceAxes& fa = kFaces[size_t(f)];
-      // The face's frustum: d - s >= 0, d + s >= 0, d - t >= 0, (top: d + t, sides: t) >= 0.
-      // All corners outside one of these planes: the element cannot reach the face.
-      bool rejected = false;
-      for (int plane = 0; plane < 4 && !rejected; ++plane) {
-        bool all_out = true;
-        for (int k = 0; k < m && all_out; ++k) {
-          const Vec3& p = poly[k];
-          const double d = fa.d_sign * p[fa.d], sp = p[fa.s], tp = p[fa.t];
-          const double value = plane == 0   ? d - sp
-                               : plane == 1 ? d + sp
-                               : plane == 2 ? d - tp
-                                            : (f == 0 ? d + tp : tp);
-          all_out = value < 0;
-        }
-        rejected = all_out;
-      }
-      if (rejected) continue;
-      double value[kMaxClip];
-      bool any_near = false;
-      for (int k = 0; k < m; ++k) {
-        value[k] = fa.d_sign * poly[k][fa.d] - near;
-        any_near = any_near || value[k] < 0;
-      }
-      const Vec3* work = poly;
-      int count = m;
-      if (any_near) {
-        count = 0;
-        for (int k = 0; k < m; ++k) {
-          const int q = k + 1 == m ? 0 : k + 1;
-          if (value[k] >= 0) clipped[count++] = poly[k];
-          if ((value[k] >= 0) != (value[q] >= 0)) {
-            // Canonical order of the two ends, so a shared edge is cut at the same point.
-            const bool swap =
-                poly[q].x < poly[k].x ||
-                (poly[q].x == poly[k].x &&
-                 (poly[q].y < poly[k].y || (poly[q].y == poly[k].y && poly[q].z < poly[k].z)));
-            const Vec3& P = swap ? poly[q] : poly[k];
-            const Vec3& Q = swap ? poly[k] : poly[q];
-            const double vP = swap ? value[q] : value[k], vQ = swap ? value[k] : value[q];
-            clipped[count++] = P + (vP / (vP - vQ)) * (Q - P);
-          }
-        }
-        work = clipped;
-      }
-      if (count < 3) continue;
-      // The same arithmetic as the per-vertex projection above, so shared corners agree.
-      for (int k = 0; k < count; ++k) {
-        const Vec3& p = work[k];
-        const double d = fa.d_sign * p[fa.d];
-        X[k] = (p[fa.s] / d + 1.0) * half;
-        Y[k] = f == 0 ? (p[fa.t] / d + 1.0) * half : p[fa.t] / d * half;
-      }
+      const int count = project_onto_face(poly, m, f, near, half, clipped, X, Y);
+      if (count == 0) continue;
       rasterise_on(f, count);
     }
   }
-  // Cracks: pixels claimed by candidates of two or more elements (see Candidate).
-  auto& cands = buf.candidates;
-  std::sort(cands.begin(), cands.end(), [](const Candidate& a, const Candidate& b) {
-    return a.pixel != b.pixel ? a.pixel < b.pixel : a.id < b.id;
-  });
-  for (size_t k = 0; k < cands.size();) {
-    size_t end = k;
-    const Candidate* nearest = &cands[k];
-    int elements = 0;
-    for (; end < cands.size() && cands[end].pixel == cands[k].pixel; ++end) {
-      if (end == k || cands[end].id != cands[end - 1].id) ++elements;
-      if (cands[end].w > nearest->w) nearest = &cands[end];
-    }
-    float& d = buf.depth[nearest->pixel];
-    int32_t& it = buf.item[nearest->pixel];
-    const double w = nearest->w;
-    const bool take = d == 0.0f        ? elements >= 2
-                      : it == kNothing ? w >= double(d) * (1.0 - kCandidateMargin)
-                                       : elements >= 2 && w > double(d) * (1.0 + kCandidateMargin);
-    if (take) {
-      d = nearest->w;
-      it = nearest->id;
-    }
-    k = end;
-  }
+  resolve_cracks(buf);
   return tests;
 }
 

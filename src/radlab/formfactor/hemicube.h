@@ -109,6 +109,16 @@ class HemicubeFormFactors final : public FormFactorMethod {
   // The same at eye c, frame (u, n x u, n), element `skip` (or -1: none) left out.
   uint64_t rasterise_at(const Vec3& c, const Vec3& n, const Vec3& u, int64_t skip, Buffers& buffers,
                         RowCost& cost) const;
+  // The three stages of rasterise_at that do not depend on the element drawn:
+  // every mesh vertex in the hemicube's frame (local coordinates, face, pixel coordinates);
+  void project_vertices(const Vec3& c, const Vec3& n, const Vec3& u, const Vec3& v,
+                        Buffers& buffers) const;
+  // a polygon that straddles faces, clipped to face f's near plane and projected to its pixels
+  // (X, Y); returns the corner count, 0 when the polygon cannot reach the face;
+  static int project_onto_face(const Vec3* poly, int m, int f, double near, double half,
+                               Vec3* clipped, double* X, double* Y);
+  // the pixels claimed by candidates of two or more elements (cracks), settled once all are drawn.
+  static void resolve_cracks(Buffers& buffers);
   // out[j] = sum of the weights of the pixels holding j.
   void accumulate(const Buffers& buffers, std::span<double> out) const;
 
