@@ -7,6 +7,7 @@
 #include "radlab/core/error.h"
 #include "radlab/core/text.h"
 #include "radlab/formfactor/occlusion.h"
+#include "radlab/formfactor/pair_geometry.h"
 #include "radlab/formfactor/polygon_integral.h"
 #include "radlab/formfactor/raycast.h"
 #include "radlab/formfactor/shaft.h"
@@ -65,13 +66,7 @@ ExactFormFactors::ExactFormFactors(const Scene& scene, const Mesh& mesh, ExactOp
       order_rule_(options_.tolerance, kMaxFixedOrder),
       element_rules_(mesh) {
   plane_epsilon_ = plane_epsilon(mesh);
-  radius_.resize(mesh.size());
-  for (size_t e = 0; e < mesh.size(); ++e) {
-    double r = 0.0;
-    for (uint32_t v : mesh.element_vertices(e))
-      r = std::max(r, glm::distance(mesh.vertices[v], mesh.centroid[e]));
-    radius_[e] = r;
-  }
+  radius_ = element_radii(mesh);
   if (is_convex_enclosure(scene)) {
     nothing_occludes_ = true;
     return;
@@ -194,7 +189,8 @@ double ExactFormFactors::unoccluded(size_t i, size_t j, std::span<const Vec3> fr
   if (gap > 0.0) {
     // The integrand vanishes on j's plane about in proportion to x's height h above it; h is
     // linear, its mean the value at the kept part's centroid, and on the ellipse it grows by at
-    // most sin(angle between the planes) per unit of i's diameter.
+    // most sin(angle between the planes) per unit of i's diameter (pair_geometry.h's
+    // grazing_scale, written out here because the double-area test below reuses its parts).
     double height_max = 0.0;
     for (const Vec3& v : from)
       height_max = std::max(height_max, glm::dot(v - mesh_.centroid[j], mesh_.normal[j]));

@@ -9,6 +9,7 @@
 
 #include "radlab/core/error.h"
 #include "radlab/core/text.h"
+#include "radlab/formfactor/pair_geometry.h"
 #include "radlab/formfactor/polygon_integral.h"
 #include "radlab/scene/geometry.h"
 
@@ -53,13 +54,7 @@ RaycastFormFactors::RaycastFormFactors(const Scene& scene, const Mesh& mesh, Ray
       plane_epsilon_(plane_epsilon(mesh)),
       visibility_(scene, mesh, options.rays, options.seed, options.shafts, options.max_rays,
                   /*importance_close_pairs=*/true) {
-  radius_.resize(mesh.size());
-  for (size_t e = 0; e < mesh.size(); ++e) {
-    double r = 0.0;
-    for (uint32_t v : mesh.element_vertices(e))
-      r = std::max(r, glm::distance(mesh.vertices[v], mesh.centroid[e]));
-    radius_[e] = r;
-  }
+  radius_ = element_radii(mesh);
   row_sigma_.assign(mesh.size(), std::numeric_limits<float>::quiet_NaN());
 }
 
@@ -75,19 +70,7 @@ int RaycastFormFactors::order_for(size_t i, size_t j, std::span<const Vec3> from
                                   double kept) const {
   const double gap = glm::distance(mesh_.centroid[i], mesh_.centroid[j]) - radius_[i] - radius_[j];
   const double diameter = 2.0 * radius_[i];
-  // The integrand vanishes on j's plane, roughly in proportion to the height h(x) of x above it,
-  // so a pair that nearly grazes j's plane (a kept sliver ending on it, near-coplanar elements)
-  // has a mean far below the integrand's size on the Bernstein ellipse: the error bound's
-  // constant is about max|h| on the ellipse over the mean of h. h is linear, so its mean over
-  // the kept part is its value at the kept part's centroid, and on the ellipse it grows by at
-  // most |grad h| = sin(angle between the planes) per unit of the element's diameter.
-  double height_max = 0.0;
-  for (const Vec3& v : from)
-    height_max = std::max(height_max, glm::dot(v - mesh_.centroid[j], mesh_.normal[j]));
-  const Vec3 centre = kept < 1.0 ? geometry::centroid(from) : mesh_.centroid[i];
-  const double height_mean = glm::dot(centre - mesh_.centroid[j], mesh_.normal[j]);
-  const double slope = glm::length(glm::cross(mesh_.normal[i], mesh_.normal[j]));
-  const double scale = height_mean / (height_max + slope * diameter);
+  const double scale = grazing_scale(mesh_, i, j, from, kept, diameter);
   return order_rule_.order(gap, diameter, scale);
 }
 

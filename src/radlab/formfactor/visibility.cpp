@@ -13,6 +13,7 @@
 
 #include "radlab/core/random.h"
 #include "radlab/formfactor/occlusion.h"
+#include "radlab/formfactor/pair_geometry.h"
 #include "radlab/formfactor/polygon_integral.h"
 #include "radlab/formfactor/sampling.h"
 
@@ -40,13 +41,7 @@ Visibility::Visibility(const Scene& scene, const Mesh& mesh, int rays, uint64_t 
   if (shaft_culling) shafts_ = std::make_unique<ShaftCuller>(scene, mesh, plane_epsilon_);
   embree_ = std::make_unique<EmbreeScene>(mesh);
   compute_own_polygon_margins();
-  radius_.resize(mesh.size());
-  for (size_t e = 0; e < mesh.size(); ++e) {
-    double r = 0.0;
-    for (uint32_t v : mesh.element_vertices(e))
-      r = std::max(r, glm::distance(mesh.vertices[v], mesh.centroid[e]));
-    radius_[e] = r;
-  }
+  radius_ = element_radii(mesh);
 }
 
 // Bounds for deciding when a pair's rays cannot meet i's or j's own polygon (see trace).

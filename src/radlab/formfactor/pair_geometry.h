@@ -1,0 +1,26 @@
+// What the quadrature of a pair needs to know of its geometry, shared by `raycast` and `exact`
+// (and the visibility tracer): each element's radius, and how far below the integrand's size its
+// mean falls when the pair grazes j's plane (the Bernstein bound's `scale`, polygon_integral.h).
+#pragma once
+
+#include <span>
+#include <vector>
+
+#include "radlab/scene/mesh.h"
+
+namespace radlab {
+
+// Each element's largest centroid-to-corner distance.
+std::vector<double> element_radii(const Mesh& mesh);
+
+// The integrand of F_ij vanishes on j's plane, roughly in proportion to the height h(x) of x above
+// it, so a pair that nearly grazes j's plane (a kept sliver ending on it, near-coplanar elements)
+// has a mean far below the integrand's size on the Bernstein ellipse: the error bound's constant
+// is about max|h| on the ellipse over the mean of h. h is linear, so its mean over the kept part
+// `from` of i (the fraction `kept` of it) is its value at the kept part's centroid, and on the
+// ellipse it grows by at most |grad h| = sin(angle between the planes) per unit of i's
+// `diameter`. Returns mean / (max + growth), <= 1.
+double grazing_scale(const Mesh& mesh, size_t i, size_t j, std::span<const Vec3> from, double kept,
+                     double diameter);
+
+}  // namespace radlab
