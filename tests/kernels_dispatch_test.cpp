@@ -236,6 +236,73 @@ TEST(KernelsDispatch, SparseRowEqualsDenseRow) {
   }
 }
 
+// A sparse row's shot with the selection fused (the runs ranked while they are shot, the gaps
+// scanned) returns the lowest index among tied largest priorities wherever the ties fall: in a
+// gap before a run, in a run before a gap, in two runs, after the last run. k = 0 makes the shot
+// add +0 to every receiver, so the priorities are the ones set here and the expected index is
+// known without running any kernel. Both instruction paths, with and without reflectance runs.
+TEST(KernelsDispatch, SparseShotSelectionTakesLowestTiedIndex) {
+  VectorGuard guard;
+  const bool have_vector = kernels::use_vector_kernels(true);
+  Pcg32 rng(29);
+  const size_t n = 400;
+  FormFactorMatrix sparse(n, Precision::kFloat, Layout::kSparse);
+  sparse.set_row(0, row_with_gaps(n, rng));
+  const FormFactorMatrix::SparseRow& stored = sparse.sparse_row(0);
+  const kernels::RunRow<float> row{stored.run.data(), stored.run.size() / 2, stored.f32.data(),
+                                   stored.f32.size()};
+  std::vector<bool> in_run(n, false);
+  for (size_t r = 0; r < row.runs; ++r)
+    for (size_t q = 0; q < row.count(r); ++q) in_run[row.first(r) + q] = true;
+  std::vector<size_t> runs, gaps;  // columns inside the runs and in the gaps
+  for (size_t j = 0; j < n; ++j) (in_run[j] ? runs : gaps).push_back(j);
+  ASSERT_GT(runs.size(), 100u);
+  ASSERT_GT(gaps.size(), 100u);
+  // Pairs of columns given the same, largest priority: gap then run, run then gap, two runs far
+  // apart (different runs), two gaps, the last gap column with a later tie nowhere, none (all
+  // priorities tied: the first column of the range wins).
+  const std::vector<std::pair<size_t, size_t>> ties = {
+      {gaps[3], runs[40]},       {runs[5], gaps[60]},        {runs[10], runs[runs.size() - 2]},
+      {gaps[1], gaps.back()},    {gaps.back(), gaps.back()}, {kernels::kNone, kernels::kNone},
+      {runs.back(), gaps.back()}};
+  const kernels::ReflectanceRun whole{n, {0.5, 0.6, 0.7}};
+  const double k[3] = {0.0, 0.0, 0.0};
+  for (int vector : {0, 1}) {
+    if (vector && !have_vector) continue;
+    kernels::use_vector_kernels(vector);
+    for (int C : {1, 3})
+      for (bool reflectance_runs : {false, true})
+        for (auto [p, q] : ties)
+          for (auto [lo, hi] : {std::pair<size_t, size_t>{0, n}, {2, n - 1}}) {
+            std::vector<double> dB(3 * n, 0.25), rho(3 * n, 0.5), area(n, 1.0), inverse(n, 1.0);
+            size_t want = lo;
+            if (p != kernels::kNone) {
+              for (int c = 0; c < C; ++c) dB[size_t(c) * n + p] = dB[size_t(c) * n + q] = 1.0;
+              want = std::min(p, q) >= lo && std::min(p, q) < hi ? std::min(p, q) : std::max(p, q);
+              if (want < lo || want >= hi) continue;
+            }
+            kernels::ShotTargets t;
+            t.channels = C;
+            for (int c = 0; c < C; ++c) {
+              t.unshot[c] = dB.data() + size_t(c) * n;
+              t.reflectance[c] = rho.data() + size_t(c) * n;
+            }
+            t.area = area.data();
+            t.inverse_area = inverse.data();
+            if (reflectance_runs) {
+              t.runs = &whole;
+              t.run_count = 1;
+            }
+            const kernels::Argmax m = kernels::shoot(row, lo, hi, k, 0.0, t, true);
+            const double top = p != kernels::kNone ? double(C) * 1.0 : double(C) * 0.25;
+            EXPECT_EQ(m.index, want)
+                << "ties at " << p << ", " << q << " C=" << C << " vector=" << vector
+                << " runs=" << reflectance_runs << " [" << lo << ", " << hi << ")";
+            EXPECT_EQ(m.value, top);
+          }
+  }
+}
+
 // Whole runs: the solvers that read rows through System::with_compact_row give the same
 // solution bits on a sparse matrix as on the dense one with the same entries.
 TEST(KernelsDispatch, SolversOnSparseMatrixEqualDense) {

@@ -43,6 +43,14 @@ inline double combine(double* s) {
   return s[0];
 }
 
+// The column origin of a run: origin[j] is the run's value for column j (first <= j). Formed by
+// integer arithmetic, as the pointer itself may lie before the values' array; only columns of the
+// run are read through it.
+template <class T>
+const T* column_origin(const T* values, size_t first) {
+  return reinterpret_cast<const T*>(reinterpret_cast<uintptr_t>(values) - first * sizeof(T));
+}
+
 template <bool kClamp>
 inline double clamped(double v) {
   if constexpr (kClamp) return v > 0.0 ? v : 0.0;
@@ -391,11 +399,12 @@ RADLAB_AVX2_INLINE void shoot_segment_avx2(const T* F, size_t a, size_t b, const
   }
 }
 
+// The shot over [lo, hi), each piece of one reflectance source in turn, its maxima folded into
+// `block`.
 template <class T, int C, bool kSelect, bool kOffset, bool kCoverage, bool kRuns>
-RADLAB_AVX2 Argmax shoot_avx2(const T* F, size_t lo, size_t hi, const double* k,
-                              double coverage_scale, const ShotTargets& t) {
-  const Lanes<C> l(t);
-  BlockBest block;
+RADLAB_AVX2_INLINE void shoot_range_avx2(const T* F, size_t lo, size_t hi, const double* k,
+                                         double coverage_scale, const ShotTargets& t,
+                                         const Lanes<C>& l, BlockBest& block) {
   // for_each_segment written out: a lambda would not be compiled for AVX2.
   if constexpr (kRuns) {
     for (const ReflectanceRun* run = first_run(t, lo); lo < hi; ++run) {
@@ -408,17 +417,27 @@ RADLAB_AVX2 Argmax shoot_avx2(const T* F, size_t lo, size_t hi, const double* k,
     shoot_segment_avx2<T, C, kSelect, kOffset, kCoverage, false>(F, lo, hi, k, nullptr,
                                                                  coverage_scale, t, l, block);
   }
-  Argmax best;
-  if constexpr (kSelect) {
-    if (block.start != kNone) {  // the first element of the block holding the block's maximum
-      for (size_t j = block.start; j < block.end; ++j)
-        if (priority<C, kOffset>(t, j) == block.value) {
-          best = {block.value, j};
-          break;
-        }
-    }
-  }
-  return best;
+}
+
+// The first element of the block holding the largest priority (block.value): the selection's
+// index, found once at the end of a pass rather than per block.
+template <int C, bool kOffset>
+Argmax first_in_block(const BlockBest& block, const ShotTargets& t) {
+  if (block.start != kNone)
+    for (size_t j = block.start; j < block.end; ++j)
+      if (priority<C, kOffset>(t, j) == block.value) return {block.value, j};
+  return {};
+}
+
+template <class T, int C, bool kSelect, bool kOffset, bool kCoverage, bool kRuns>
+RADLAB_AVX2 Argmax shoot_avx2(const T* F, size_t lo, size_t hi, const double* k,
+                              double coverage_scale, const ShotTargets& t) {
+  const Lanes<C> l(t);
+  BlockBest block;
+  shoot_range_avx2<T, C, kSelect, kOffset, kCoverage, kRuns>(F, lo, hi, k, coverage_scale, t, l,
+                                                             block);
+  if constexpr (kSelect) return first_in_block<C, kOffset>(block, t);
+  return {};
 }
 // The priorities of 4 elements from q, as priority<C, kOffset> forms them (the leading 0 + is
 // exact: |v| >= +0).
@@ -436,12 +455,11 @@ RADLAB_AVX2_INLINE v4d priority4(size_t q, const Lanes<C>& l) {
   return p * load(l.area + q);
 }
 
-// max_priority_scan's result (the largest priority, its lowest index) by blocks of 64 as the shot
-// finds it: each block's maximum, the first block holding the largest, then its first index.
+// The priorities of [lo, hi) by blocks of 64 as the shot finds them: each block's maximum, folded
+// into `block` (strictly greater: the first block holding the largest wins).
 template <int C, bool kOffset>
-RADLAB_AVX2 Argmax max_priority_avx2(size_t lo, size_t hi, const ShotTargets& t) {
-  const Lanes<C> l(t);
-  BlockBest block;
+RADLAB_AVX2_INLINE void scan_priority_avx2(size_t lo, size_t hi, const ShotTargets& t,
+                                           const Lanes<C>& l, BlockBest& block) {
   for (size_t j = lo; j < hi;) {
     const size_t end = std::min(hi, j + kBlock);
     v4d m0 = splat(-1.0), m1 = splat(-1.0);
@@ -463,14 +481,43 @@ RADLAB_AVX2 Argmax max_priority_avx2(size_t lo, size_t hi, const ShotTargets& t)
     if (mm > block.value) block = {mm, j, end};
     j = end;
   }
-  Argmax best;
-  if (block.start != kNone)
-    for (size_t j = block.start; j < block.end; ++j)
-      if (priority<C, kOffset>(t, j) == block.value) {
-        best = {block.value, j};
-        break;
-      }
-  return best;
+}
+
+// max_priority_scan's result (the largest priority, its lowest index): the blocks' maxima, then
+// the first index of the first block holding the largest.
+template <int C, bool kOffset>
+RADLAB_AVX2 Argmax max_priority_avx2(size_t lo, size_t hi, const ShotTargets& t) {
+  const Lanes<C> l(t);
+  BlockBest block;
+  scan_priority_avx2<C, kOffset>(lo, hi, t, l, block);
+  return first_in_block<C, kOffset>(block, t);
+}
+
+// A sparse row's shot with the selection fused in (shoot_sparse below): in column order, each
+// gap between stored runs is only scanned for its priorities, each run is shot with its
+// priorities taken in the same pass, and one BlockBest runs through all of them, so the index
+// is searched for once, in one block, at the end. The largest priority over [lo, hi) and its
+// lowest index do not depend on how the range is cut, so this is max_priority's result after
+// the shot (the same bits as the dense pass's selection).
+template <class T, int C, bool kOffset, bool kCoverage, bool kRuns>
+RADLAB_AVX2 Argmax shoot_sparse_select_avx2(const RunRow<T>& F, size_t lo, size_t hi,
+                                            const double* k, double coverage_scale,
+                                            const ShotTargets& t) {
+  const Lanes<C> l(t);
+  BlockBest block;
+  size_t cursor = lo;  // columns before it are done
+  for (size_t r = 0; r < F.runs; ++r) {
+    const size_t first = F.first(r);
+    if (first >= hi) break;
+    const size_t a = std::max(first, lo), b = std::min(first + F.count(r), hi);
+    if (a >= b) continue;
+    scan_priority_avx2<C, kOffset>(cursor, a, t, l, block);
+    shoot_range_avx2<T, C, true, kOffset, kCoverage, kRuns>(
+        column_origin(F.value + F.begin(r), first), a, b, k, coverage_scale, t, l, block);
+    cursor = b;
+  }
+  scan_priority_avx2<C, kOffset>(cursor, hi, t, l, block);
+  return first_in_block<C, kOffset>(block, t);
 }
 #endif  // RADLAB_HAVE_AVX2_KERNELS
 
@@ -498,14 +545,6 @@ std::atomic<bool>& vector_enabled() {
 
 // ------------------------------------------------------------------------------------------
 // Dispatch on channels and instruction set.
-
-// The column origin of a run: origin[j] is the run's value for column j (first <= j). Formed by
-// integer arithmetic, as the pointer itself may lie before the values' array; only columns of the
-// run are read through it.
-template <class T>
-const T* column_origin(const T* values, size_t first) {
-  return reinterpret_cast<const T*>(reinterpret_cast<uintptr_t>(values) - first * sizeof(T));
-}
 
 // Calls lanes(F, lo, hi) over the row's columns: [0, n) of a dense row, each stored run of a
 // sparse one (with F the run's column origin).
@@ -644,16 +683,74 @@ Argmax shoot_dispatch(const T* F, size_t lo, size_t hi, const double* k, double 
   return result;
 }
 
-// A shot on a sparse row's stored runs: each run's receivers get the dense kernel over the run
-// (the same arithmetic, so the same bits); the receivers in the gaps would get exactly nothing
-// (kernels_row.h) and are not touched. With select, one scan of [lo, hi) afterwards finds the
-// largest priority and its lowest index: the same values, so the same result as the dense pass's
-// fused selection. (Selecting per run and scanning only the gaps was 2.2x slower on rows of
-// 64-column runs: each run's block search and the scalar gap scans cost more than one vector
-// scan of the state, which is in L2.)
+// The scalar form of shoot_sparse_select_avx2: the gaps' priorities scanned, the runs shot with
+// their selection fused, the pieces' maxima combined in column order with a strict `>` (the
+// lowest index of the largest priority, as one scan of [lo, hi) would find it).
+template <class T, int C, bool kOffset, bool kCoverage, bool kRuns>
+Argmax shoot_sparse_select_scalar(const RunRow<T>& F, size_t lo, size_t hi, const double* k,
+                                  double cs, const ShotTargets& t) {
+  Argmax best;
+  const auto scan = [&](size_t a, size_t b) {
+    for (size_t j = a; j < b; ++j) {
+      const double p = priority<C, kOffset>(t, j);
+      if (p > best.value) best = {p, j};
+    }
+  };
+  size_t cursor = lo;
+  for (size_t r = 0; r < F.runs; ++r) {
+    const size_t first = F.first(r);
+    if (first >= hi) break;
+    const size_t a = std::max(first, lo), b = std::min(first + F.count(r), hi);
+    if (a >= b) continue;
+    scan(cursor, a);
+    const Argmax run = shoot_scalar<T, C, true, kOffset, kCoverage, kRuns>(
+        column_origin(F.value + F.begin(r), first), a, b, k, cs, t);
+    if (run.value > best.value) best = run;
+    cursor = b;
+  }
+  scan(cursor, hi);
+  return best;
+}
+
+template <class T, int C, bool kOffset, bool kCoverage, bool kRuns>
+Argmax shoot_sparse_select_isa(const RunRow<T>& F, size_t lo, size_t hi, const double* k, double cs,
+                               const ShotTargets& t) {
+#ifdef RADLAB_HAVE_AVX2_KERNELS
+  if (vector_enabled().load(std::memory_order_relaxed))
+    return shoot_sparse_select_avx2<T, C, kOffset, kCoverage, kRuns>(F, lo, hi, k, cs, t);
+#endif
+  return shoot_sparse_select_scalar<T, C, kOffset, kCoverage, kRuns>(F, lo, hi, k, cs, t);
+}
+
+template <class T, int C, bool kOffset>
+Argmax shoot_sparse_select_flags(const RunRow<T>& F, size_t lo, size_t hi, const double* k,
+                                 double cs, const ShotTargets& t) {
+  if (t.coverage)
+    return t.runs ? shoot_sparse_select_isa<T, C, kOffset, true, true>(F, lo, hi, k, cs, t)
+                  : shoot_sparse_select_isa<T, C, kOffset, true, false>(F, lo, hi, k, cs, t);
+  return t.runs ? shoot_sparse_select_isa<T, C, kOffset, false, true>(F, lo, hi, k, cs, t)
+                : shoot_sparse_select_isa<T, C, kOffset, false, false>(F, lo, hi, k, cs, t);
+}
+
+// A shot on a sparse row's stored runs: each run's receivers get the dense kernel's arithmetic
+// (so the same bits); the receivers in the gaps would get exactly nothing (kernels_row.h) and are
+// not touched. With select, the selection is fused into the same pass
+// (shoot_sparse_select_avx2): the runs' receivers are ranked while they are updated and only the
+// gaps are read again. (The version before this one shot the runs and then scanned all of
+// [lo, hi): on rows of 64-column runs, 7% slower than shooting the expanded dense row.) Rows long
+// enough for the parallel split (set_parallel_shot_minimum) shoot each run through it and scan
+// afterwards: the same result.
 template <class T>
 Argmax shoot_sparse(const RunRow<T>& F, size_t lo, size_t hi, const double* k, double cs,
                     const ShotTargets& t, bool select) {
+  if (lo >= hi) return {};
+  if (select && hi - lo < parallel_minimum().load(std::memory_order_relaxed)) {
+    if (t.channels == 1)
+      return t.offset[0] ? shoot_sparse_select_flags<T, 1, true>(F, lo, hi, k, cs, t)
+                         : shoot_sparse_select_flags<T, 1, false>(F, lo, hi, k, cs, t);
+    return t.offset[0] ? shoot_sparse_select_flags<T, 3, true>(F, lo, hi, k, cs, t)
+                       : shoot_sparse_select_flags<T, 3, false>(F, lo, hi, k, cs, t);
+  }
   for (size_t r = 0; r < F.runs; ++r) {
     const size_t first = F.first(r);
     if (first >= hi) break;

@@ -80,8 +80,9 @@ Argmax shoot(const float* F, size_t lo, size_t hi, const double* k, double cover
 Argmax shoot(const double* F, size_t lo, size_t hi, const double* k, double coverage_scale,
              const ShotTargets& targets, bool select);
 // The same on a sparse row's stored runs (kernels_row.h): only stored receivers are updated (the
-// others would receive exactly nothing); with select, max_priority over [lo, hi) afterwards (dB
-// is read, not the row). The same bits and index as on the dense form.
+// others would receive exactly nothing); with select, max_priority over [lo, hi) after the shot,
+// found in the same pass (the runs' receivers ranked as they are updated, the gaps' priorities
+// read). The same bits and index as on the dense form.
 Argmax shoot(const RunRow<float>& F, size_t lo, size_t hi, const double* k, double coverage_scale,
              const ShotTargets& targets, bool select);
 Argmax shoot(const RunRow<double>& F, size_t lo, size_t hi, const double* k, double coverage_scale,
