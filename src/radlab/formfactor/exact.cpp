@@ -179,14 +179,33 @@ double ExactFormFactors::pair_integral(size_t i, size_t j, RowCost& cost) const 
           cost.kernel_evaluations += from.size();
           return 0.0;
         }
-      // The same budget as an unoccluded pair: `tolerance` relative to the pair's own value.
-      const double floor = 1e-16 / kept;
-      double error = 0.0;
-      const double f = kept * clipped_pair(i, j, from, to, occluders, floor, cost, &error);
+      // An occluder standing on i (or passing through it) makes the integrand jump along the
+      // line where its plane meets i's: points on one side see past it, points on the other
+      // (under a box) do not. The adaptive rule's error there falls only as 2^-depth, so i is
+      // split along every such line and each convex piece integrated on its own: the jumps
+      // then lie on the pieces' edges.
+      thread_local std::vector<std::vector<Vec3>> pieces;
+      thread_local std::vector<double> shares;
+      split_on_contacts(i, from, occluders, pieces, shares);
+      // Pieces share the work cap: each may use what the earlier ones left, divided among the
+      // pieces still to come (so converging pieces leave budget to the harder ones).
+      uint64_t budget = uint64_t(options_.max_evaluations);
+      double f = 0.0, error = 0.0;
+      for (size_t p = 0; p < pieces.size(); ++p) {
+        // The same budget as an unoccluded pair: `tolerance` relative to the pair's own value.
+        const double w = kept * shares[p];
+        const long long cap =
+            std::max<long long>(100, static_cast<long long>(budget / (pieces.size() - p)));
+        const uint64_t before = cost.kernel_evaluations;
+        double piece_error = 0.0;
+        f += w * clipped_pair(i, j, pieces[p], to, occluders, 1e-16 / w, cap, cost, &piece_error);
+        error += w * piece_error;
+        budget -= std::min(budget, cost.kernel_evaluations - before);
+      }
       // The row-sum check allows tolerance * F_ij for this entry; state what is beyond it.
-      const double excess = kept * error - options_.tolerance * f;
+      const double excess = error - options_.tolerance * f;
       if (excess > 0.0) record_excess(i, j, excess);
-      return f;
+      return f > 0.0 ? f : 0.0;
     }
   }
   const double f = unoccluded(i, j, from, to, kept, cost);
@@ -279,9 +298,53 @@ double ExactFormFactors::unoccluded(size_t i, size_t j, std::span<const Vec3> fr
 // The same adaptive rule, tolerance and floor as the unoccluded integral: the integrand is
 // continuous in x (shadow edges move continuously), with kinks where x sees an occluder's edge
 // line up with another edge, which the adaptive rule refines like a shared edge's singularity.
+// Splits `from` (i's part in front of j's plane) along the plane of every occluder that touches
+// i's plane (a corner within plane_epsilon_ of it, or corners on both sides) into convex pieces,
+// with each piece's share of from's area. An occluder whose plane misses `from`, or runs along
+// it, cuts nothing; with no such occluder `pieces` is `from` alone (share 1, the same bits).
+void ExactFormFactors::split_on_contacts(size_t i, std::span<const Vec3> from,
+                                         std::span<const Occluder> occluders,
+                                         std::vector<std::vector<Vec3>>& pieces,
+                                         std::vector<double>& shares) const {
+  pieces.assign(1, std::vector<Vec3>(from.begin(), from.end()));
+  shares.assign(1, 1.0);
+  const Vec3& n = mesh_.normal[i];
+  const Vec3& origin = from[0];
+  thread_local std::vector<Vec3> back;
+  for (const Occluder& o : occluders) {
+    double lo = 1e300, hi = -1e300;
+    for (const Vec3& c : o.corners) {
+      const double h = glm::dot(c - origin, n);
+      lo = std::min(lo, h);
+      hi = std::max(hi, h);
+    }
+    const bool touches =
+        std::min(std::abs(lo), std::abs(hi)) <= plane_epsilon_ || (lo < 0.0 && hi > 0.0);
+    if (!touches) continue;
+    const Vec3& point = o.corners[0];
+    for (size_t p = 0, count = pieces.size(); p < count; ++p) {
+      back = pieces[p];
+      const double front_share = clip_to_front(pieces[p], point, o.normal, plane_epsilon_);
+      if (front_share >= 1.0) continue;  // wholly in front: not cut
+      const double back_share = clip_to_front(back, point, -o.normal, plane_epsilon_);
+      if (front_share <= 0.0) {  // wholly behind (or a sliver in front): not cut either
+        if (back_share > 0.0) pieces[p] = back;
+        continue;
+      }
+      const double share = shares[p];
+      shares[p] = share * front_share;
+      if (back_share > 0.0) {
+        pieces.push_back(back);
+        shares.push_back(share * back_share);
+      }
+    }
+  }
+}
+
 double ExactFormFactors::clipped_pair(size_t i, size_t j, std::span<const Vec3> from,
                                       std::span<const Vec3> to, std::span<const Occluder> occluders,
-                                      double floor, RowCost& cost, double* error) const {
+                                      double floor, long long max_evaluations, RowCost& cost,
+                                      double* error) const {
   const Vec3 n = mesh_.normal[i], to_normal = mesh_.normal[j];
   const double epsilon = plane_epsilon_;
   thread_local VisibleScratch scratch;
@@ -291,7 +354,7 @@ double ExactFormFactors::clipped_pair(size_t i, size_t j, std::span<const Vec3> 
   long long evaluations = 0;
   const double f =
       polygon_integral_adaptive({from, n}, {to, to_normal}, &visible, options_.tolerance, floor,
-                                options_.max_depth, &evaluations, options_.max_evaluations, error);
+                                options_.max_depth, &evaluations, max_evaluations, error);
   cost.kernel_evaluations += uint64_t(evaluations);
   return f > 0.0 ? f : 0.0;
 }

@@ -42,6 +42,9 @@
 // tolerance * F_ij is added to the stated error of rows i and j (largest_row_excess();
 // diagnostics.cpp's stated_row_sum_error). The tolerance is then not what the row meets: the
 // stated error says so. Cost: at most max_evaluations clipped evaluations per occluded pair.
+// An occluder touching i's plane (standing on i) would leave a jump inside i: i is split along
+// its plane into convex pieces first (split_on_contacts), so the jump lies on the pieces' edges
+// and the rule converges there (docs/formfactors.md, "Work cap of clip mode").
 //
 // Left out: pairs facing away or coplanar (no work, pairs_culled); visibility rays wherever
 // nothing can occlude (pairs_unoccluded).
@@ -139,8 +142,10 @@ class ExactFormFactors final : public FormFactorMethod {
   double unoccluded(size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to,
                     double kept, RowCost& cost) const;
   double clipped_pair(size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to,
-                      std::span<const Occluder> occluders, double floor, RowCost& cost,
-                      double* error) const;
+                      std::span<const Occluder> occluders, double floor, long long max_evaluations,
+                      RowCost& cost, double* error) const;
+  void split_on_contacts(size_t i, std::span<const Vec3> from, std::span<const Occluder> occluders,
+                         std::vector<std::vector<Vec3>>& pieces, std::vector<double>& shares) const;
   // Records pair (i, j)'s error beyond tolerance (absolute, in F_ij; integrated over i) in rows i
   // and j, once per unordered pair however often the pair is recomputed.
   void record_excess(size_t i, size_t j, double excess) const;
