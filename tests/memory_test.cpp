@@ -142,10 +142,9 @@ TEST(SparseLayout, SplitRoomStoresUnder60PercentOfDense) {
   ASSERT_EQ(F.precision(), Precision::kDouble);
   const double dense = double(n) * double(n) * sizeof(double);
   EXPECT_LT(double(F.bytes()), 0.6 * dense);
-  // Nothing crosses the wall in truth. raycast's close-pair sampler (Arvo's solid-angle rays)
-  // lets a little through at the corners where the two rooms' faces touch (at most 3e-5 here,
-  // docs/formfactors.md "Known leak at touching corners"): within its stated pair tolerance 1e-4,
-  // and few enough entries that the layout still stores them as short runs.
+  // Nothing crosses the wall in truth; raycast gives exactly 0 there since the skipped ends of its
+  // rays are traced again (tests/corner_leak_test.cpp, docs/formfactors.md "Light through walls
+  // at touching corners"). Here only the layout is tested: few entries across, stored as runs.
   size_t leaks = 0;
   for (size_t i = 0; i < n / 2; ++i)
     for (size_t j = n / 2; j < n; ++j) {

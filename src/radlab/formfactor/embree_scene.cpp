@@ -2,6 +2,8 @@
 
 #include <embree3/rtcore.h>
 
+#include <cmath>
+#include <glm/geometric.hpp>
 #include <limits>
 #include <string>
 
@@ -34,6 +36,40 @@ void skip_polygons(const RTCFilterFunctionNArguments* args) {
     if (args->valid[k] == 0) continue;
     const uint32_t polygon = skip->triangle_polygon[RTCHitN_primID(args->hit, args->N, k)];
     if (polygon == skip->skip_a || polygon == skip->skip_b) args->valid[k] = 0;
+  }
+}
+
+// The same, and the two planes whose own hits are ignored (occluded16_off_planes).
+struct OffPlanesContext {
+  SkipContext skip;  // first member, as above
+  EmbreeScene::Plane planes[2];
+};
+
+bool in_plane(const EmbreeScene::Plane& plane, const Vec3& point, const Vec3& triangle_normal) {
+  const double length = glm::length(triangle_normal);
+  return length > 0.0 &&
+         std::abs(glm::dot(triangle_normal, plane.normal)) >= (1.0 - 1e-4) * length &&
+         std::abs(glm::dot(point - plane.point, plane.normal)) <= plane.tolerance;
+}
+
+void skip_polygons_and_planes(const RTCFilterFunctionNArguments* args) {
+  skip_polygons(args);
+  const auto* off = reinterpret_cast<const OffPlanesContext*>(args->context);
+  for (unsigned k = 0; k < args->N; ++k) {
+    if (args->valid[k] == 0) continue;
+    // During the filter call the ray's tfar holds the candidate hit's distance.
+    const double t = double(RTCRayN_tfar(args->ray, args->N, k));
+    const Vec3 hit(double(RTCRayN_org_x(args->ray, args->N, k)) +
+                       t * double(RTCRayN_dir_x(args->ray, args->N, k)),
+                   double(RTCRayN_org_y(args->ray, args->N, k)) +
+                       t * double(RTCRayN_dir_y(args->ray, args->N, k)),
+                   double(RTCRayN_org_z(args->ray, args->N, k)) +
+                       t * double(RTCRayN_dir_z(args->ray, args->N, k)));
+    const Vec3 normal(double(RTCHitN_Ng_x(args->hit, args->N, k)),
+                      double(RTCHitN_Ng_y(args->hit, args->N, k)),
+                      double(RTCHitN_Ng_z(args->hit, args->N, k)));
+    if (in_plane(off->planes[0], hit, normal) || in_plane(off->planes[1], hit, normal))
+      args->valid[k] = 0;
   }
 }
 
@@ -105,6 +141,31 @@ bool EmbreeScene::occluded(const Vec3& o, const Vec3& d, double t_near, double t
 
 void EmbreeScene::occluded16(const SegmentPacket& packet, bool* out, uint32_t skip_a,
                              uint32_t skip_b) const {
+  SkipContext skip;
+  rtcInitIntersectContext(&skip.context);
+  skip.context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  skip.triangle_polygon = triangle_polygon_.data();
+  skip.skip_a = skip_a;
+  skip.skip_b = skip_b;
+  if (skip_a != kNoPolygon || skip_b != kNoPolygon) skip.context.filter = skip_polygons;
+  occluded16_with(packet, out, &skip.context);
+}
+
+void EmbreeScene::occluded16_off_planes(const SegmentPacket& packet, bool* out, const Plane& a,
+                                        const Plane& b, uint32_t skip_a, uint32_t skip_b) const {
+  OffPlanesContext off;
+  rtcInitIntersectContext(&off.skip.context);
+  off.skip.context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  off.skip.triangle_polygon = triangle_polygon_.data();
+  off.skip.skip_a = skip_a;
+  off.skip.skip_b = skip_b;
+  off.skip.context.filter = skip_polygons_and_planes;
+  off.planes[0] = a;
+  off.planes[1] = b;
+  occluded16_with(packet, out, &off.skip.context);
+}
+
+void EmbreeScene::occluded16_with(const SegmentPacket& packet, bool* out, void* context) const {
   alignas(64) RTCRay16 rays;
   alignas(64) int valid[16];
   // Whole-width copies (they vectorise); lanes past `count` are masked off by `valid` but still
@@ -134,14 +195,7 @@ void EmbreeScene::occluded16(const SegmentPacket& packet, bool* out, uint32_t sk
     rays.tnear[k] = packet.t_near[0];
     rays.tfar[k] = packet.t_far[0];
   }
-  SkipContext skip;
-  rtcInitIntersectContext(&skip.context);
-  skip.context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-  skip.triangle_polygon = triangle_polygon_.data();
-  skip.skip_a = skip_a;
-  skip.skip_b = skip_b;
-  if (skip_a != kNoPolygon || skip_b != kNoPolygon) skip.context.filter = skip_polygons;
-  rtcOccluded16(valid, impl_->scene, &skip.context, &rays);
+  rtcOccluded16(valid, impl_->scene, static_cast<RTCIntersectContext*>(context), &rays);
   for (int k = 0; k < packet.count; ++k) out[k] = rays.tfar[k] < 0.0f;
 }
 

@@ -46,6 +46,18 @@ class EmbreeScene {
   void occluded16(const SegmentPacket& packet, bool* out, uint32_t skip_a = kNoPolygon,
                   uint32_t skip_b = kNoPolygon) const;
 
+  // As occluded16, and hits that lie in either plane (point, unit normal) are ignored too: on a
+  // triangle within ~0.8 degrees of parallel to it, at most `tolerance` from it. For the short
+  // pieces of segments next to their ends (Visibility: what the ends' offsets leave out), where a
+  // polygon coplanar with an end's element (its own, a neighbour, a back-to-back twin) is met
+  // only by rounding, but a polygon crossing that plane (a wall the element touches) blocks.
+  struct Plane {
+    Vec3 point, normal;
+    double tolerance = 0.0;
+  };
+  void occluded16_off_planes(const SegmentPacket& packet, bool* out, const Plane& a, const Plane& b,
+                             uint32_t skip_a = kNoPolygon, uint32_t skip_b = kNoPolygon) const;
+
   // The closest element hit by a ray, if any.
   RayHit intersect(const Vec3& origin, const Vec3& direction, double t_near, double t_far) const;
 
@@ -54,6 +66,7 @@ class EmbreeScene {
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
+  void occluded16_with(const SegmentPacket& packet, bool* out, void* context) const;
   std::vector<uint32_t> triangle_element_;
   std::vector<uint32_t> triangle_polygon_;
 };

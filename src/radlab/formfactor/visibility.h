@@ -13,7 +13,11 @@
 //                                   j's own polygons are ignored (a segment meets them only at its
 //                                   ends: such hits are rounding on grazing rays; the Embree filter
 //                                   that drops them is attached only to pairs where they can
-//                                   occur).
+//                                   occur). Each segment skips a piece at each end (where it
+//                                   would meet its own planes by rounding); for the segments
+//                                   nothing blocked those pieces are traced again, ignoring only
+//                                   hits in the end's plane, so a wall the end touches blocks
+//                                   (trace_skipped_ends).
 //
 // Close pairs (the larger element's radius above a quarter of the centroids' distance; raycast
 // only) draw each ray from a point of the smaller element to a point of the other drawn uniformly
@@ -97,6 +101,8 @@ class Visibility {
   int trace_close(size_t lo, size_t hi, const FacingParts& parts, int R, uint32_t skip_lo,
                   uint32_t skip_hi, double& sigma) const;
   uint32_t own_polygon_to_skip(size_t own, double height) const;
+  void trace_skipped_ends(const SegmentPacket& segments, bool* blocked, size_t from,
+                          size_t to) const;
 
   const Mesh& mesh_;
   bool importance_close_pairs_ = false;
