@@ -162,14 +162,24 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
     check_limit("pairs", pairs, what + " (" + spec.ff_method + ")");
   }
   if (dense) {
-    std::optional<FormFactorMatrix> cached =
-        cache ? cache->load(key, &problem->build) : std::nullopt;
+    // exact's clip mode states the remaining error of pairs stopped short of its tolerance, kept
+    // beside the matrix: a cached matrix without it is not used.
+    const auto* clip = dynamic_cast<const ExactFormFactors*>(problem->method.get());
+    if (clip && !clip->records_row_excess()) clip = nullptr;
+    const auto load = [&]() -> std::optional<FormFactorMatrix> {
+      BuildReport report = problem->build;
+      std::optional<FormFactorMatrix> m = cache->load(key, &report);
+      if (m && clip && !load_row_excess(*clip, cache->path(key).string(), n)) return std::nullopt;
+      problem->build = std::move(report);
+      return m;
+    };
+    std::optional<FormFactorMatrix> cached = cache ? load() : std::nullopt;
     // A miss: hold the key's lock while building and storing, so that concurrent processes
     // (shards on an empty cache) build the matrix once; a waiter finds it stored and loads it.
     std::unique_ptr<FileLock> building;
     if (cache && !cached) {
       building = cache->lock(key);
-      cached = cache->load(key, &problem->build);
+      cached = load();
     }
     if (cached) {
       problem->matrix = std::move(*cached);
@@ -209,6 +219,7 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
       problem->build.cache_file = cache->path(key).string();
       if (auto* raycast = dynamic_cast<const RaycastFormFactors*>(problem->method.get()))
         save_row_sampling_errors(*raycast, problem->build.cache_file);
+      if (clip) save_row_excess(*clip, problem->build.cache_file);
     }
     building.reset();
     if (symmetrise_ff) {

@@ -3,12 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <map>
 
 #include "radlab/core/param_bag.h"
 #include "radlab/core/text.h"
+#include "radlab/formfactor/exact.h"
 #include "radlab/formfactor/raycast.h"
 #include "radlab/scene/overlap.h"
 
@@ -132,9 +134,20 @@ double stated_row_sum_error(const FormFactorMethod& method, std::string* basis) 
   } else if (name == "exact") {
     const double tolerance = parameter(p, "tolerance", 1e-10);
     const bool rays = p.find("visibility=rays") != std::string::npos;
-    error = tolerance + storage + (rays ? visibility_allowance(parameter(p, "rays", 64)) : 0.0);
+    // clip mode: pairs stopped by the work cap add their remaining error (exact.h)
+    const auto* exact = dynamic_cast<const ExactFormFactors*>(&method);
+    const double capped = exact ? exact->largest_row_excess() : 0.0;
+    error = tolerance + storage + capped +
+            (rays ? visibility_allowance(parameter(p, "rays", 64)) : 0.0);
     std::snprintf(buffer, sizeof buffer, "exact: quadrature tolerance %.3g + float storage 1e-7%s",
                   tolerance, rays ? " + visibility 0.04/sqrt(rays)" : "");
+    if (capped > 0.0) {
+      const size_t used = std::strlen(buffer);
+      std::snprintf(buffer + used, sizeof buffer - used,
+                    " + %.3g (the largest row's remaining error of %zu pairs stopped short of "
+                    "the tolerance by max_evaluations or max_depth)",
+                    capped, exact->pairs_capped());
+    }
   } else if (name == "hemicube") {
     const int R = int(parameter(p, "resolution", 150));
     const bool midpoint = p.find("weights=exact") == std::string::npos;

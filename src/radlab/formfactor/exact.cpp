@@ -1,7 +1,10 @@
 #include "radlab/formfactor/exact.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <glm/geometric.hpp>
 
 #include "radlab/core/error.h"
@@ -31,6 +34,10 @@ ExactOptions ExactOptions::from(ParamBag& bag) {
         "exact: 'rays' and 'seed' apply only with visibility=rays (visibility=clip "
         "samples nothing)");
   }
+  if (o.visibility_clip)
+    o.max_evaluations = bag.get_int("max_evaluations", o.max_evaluations, kIntMin, kInt64Max);
+  else if (bag.has("max_evaluations"))
+    throw UsageError("exact: 'max_evaluations' applies only with visibility=clip");
   o.validate();
   return o;
 }
@@ -45,6 +52,10 @@ void ExactOptions::validate() const {
     throw UsageError("exact: visibility is either rays or clip, not both");
   if (rays < 1 || rays > 4096)
     throw UsageError("exact: rays must lie in [1,4096], got " + std::to_string(rays));
+  // Below one root cell's split (4 children x 9 points) the rule could not even start.
+  if (max_evaluations < 100)
+    throw UsageError("exact: max_evaluations must be at least 100, got " +
+                     std::to_string(max_evaluations));
 }
 
 std::string ExactOptions::canonical() const {
@@ -53,9 +64,13 @@ std::string ExactOptions::canonical() const {
     std::snprintf(buffer, sizeof buffer,
                   "max_depth=%d,rays=%d,seed=%llu,tolerance=%.6g,visibility=rays", max_depth, rays,
                   static_cast<unsigned long long>(seed), tolerance);
+  else if (visibility_clip)
+    std::snprintf(buffer, sizeof buffer,
+                  "max_depth=%d,max_evaluations=%lld,tolerance=%.6g,visibility=clip", max_depth,
+                  max_evaluations, tolerance);
   else
-    std::snprintf(buffer, sizeof buffer, "max_depth=%d,tolerance=%.6g,visibility=%s", max_depth,
-                  tolerance, visibility_clip ? "clip" : "refuse");
+    std::snprintf(buffer, sizeof buffer, "max_depth=%d,tolerance=%.6g,visibility=refuse", max_depth,
+                  tolerance);
   return buffer;
 }
 
@@ -76,6 +91,7 @@ ExactFormFactors::ExactFormFactors(const Scene& scene, const Mesh& mesh, ExactOp
     return;
   }
   if (options_.visibility_clip) {
+    row_excess_.assign(mesh.size(), 0.0);
     shafts_ = std::make_unique<ShaftCuller>(scene, mesh, plane_epsilon_);
     occluder_normal_.reserve(scene.polygons.size());
     for (const Polygon& p : scene.polygons)
@@ -113,7 +129,11 @@ std::vector<std::string> ExactFormFactors::left_out() const {
     notes.push_back(
         "visibility by clipping: pairs whose shaft no polygon reaches get no clipping "
         "(pairs_unoccluded); the others clip P_j by the shadows of the polygons in their shaft at "
-        "every quadrature point (pairs_traced, rays 0)");
+        "every quadrature point (pairs_traced, rays 0), at most max_evaluations points a pair "
+        "(" +
+        std::to_string(pairs_capped()) +
+        " pairs stopped short of the tolerance so far; their remaining error is in the stated "
+        "error)");
   } else {
     notes.push_back(is_convex_enclosure(scene_)
                         ? "visibility: none (the scene is a convex enclosure, nothing can occlude)"
@@ -159,9 +179,33 @@ double ExactFormFactors::pair_integral(size_t i, size_t j, RowCost& cost) const 
           cost.kernel_evaluations += from.size();
           return 0.0;
         }
-      // The same budget as an unoccluded pair: `tolerance` relative to the pair's own value.
-      const double floor = 1e-16 / kept;
-      return kept * clipped_pair(i, j, from, to, occluders, floor, cost);
+      // An occluder standing on i (or passing through it) makes the integrand jump along the
+      // line where its plane meets i's: points on one side see past it, points on the other
+      // (under a box) do not. The adaptive rule's error there falls only as 2^-depth, so i is
+      // split along every such line and each convex piece integrated on its own: the jumps
+      // then lie on the pieces' edges.
+      thread_local std::vector<std::vector<Vec3>> pieces;
+      thread_local std::vector<double> shares;
+      split_on_contacts(i, from, occluders, pieces, shares);
+      // Pieces share the work cap: each may use what the earlier ones left, divided among the
+      // pieces still to come (so converging pieces leave budget to the harder ones).
+      uint64_t budget = uint64_t(options_.max_evaluations);
+      double f = 0.0, error = 0.0;
+      for (size_t p = 0; p < pieces.size(); ++p) {
+        // The same budget as an unoccluded pair: `tolerance` relative to the pair's own value.
+        const double w = kept * shares[p];
+        const long long cap =
+            std::max<long long>(100, static_cast<long long>(budget / (pieces.size() - p)));
+        const uint64_t before = cost.kernel_evaluations;
+        double piece_error = 0.0;
+        f += w * clipped_pair(i, j, pieces[p], to, occluders, 1e-16 / w, cap, cost, &piece_error);
+        error += w * piece_error;
+        budget -= std::min(budget, cost.kernel_evaluations - before);
+      }
+      // The row-sum check allows tolerance * F_ij for this entry; state what is beyond it.
+      const double excess = error - options_.tolerance * f;
+      if (excess > 0.0) record_excess(i, j, excess);
+      return f > 0.0 ? f : 0.0;
     }
   }
   const double f = unoccluded(i, j, from, to, kept, cost);
@@ -254,9 +298,53 @@ double ExactFormFactors::unoccluded(size_t i, size_t j, std::span<const Vec3> fr
 // The same adaptive rule, tolerance and floor as the unoccluded integral: the integrand is
 // continuous in x (shadow edges move continuously), with kinks where x sees an occluder's edge
 // line up with another edge, which the adaptive rule refines like a shared edge's singularity.
+// Splits `from` (i's part in front of j's plane) along the plane of every occluder that touches
+// i's plane (a corner within plane_epsilon_ of it, or corners on both sides) into convex pieces,
+// with each piece's share of from's area. An occluder whose plane misses `from`, or runs along
+// it, cuts nothing; with no such occluder `pieces` is `from` alone (share 1, the same bits).
+void ExactFormFactors::split_on_contacts(size_t i, std::span<const Vec3> from,
+                                         std::span<const Occluder> occluders,
+                                         std::vector<std::vector<Vec3>>& pieces,
+                                         std::vector<double>& shares) const {
+  pieces.assign(1, std::vector<Vec3>(from.begin(), from.end()));
+  shares.assign(1, 1.0);
+  const Vec3& n = mesh_.normal[i];
+  const Vec3& origin = from[0];
+  thread_local std::vector<Vec3> back;
+  for (const Occluder& o : occluders) {
+    double lo = 1e300, hi = -1e300;
+    for (const Vec3& c : o.corners) {
+      const double h = glm::dot(c - origin, n);
+      lo = std::min(lo, h);
+      hi = std::max(hi, h);
+    }
+    const bool touches =
+        std::min(std::abs(lo), std::abs(hi)) <= plane_epsilon_ || (lo < 0.0 && hi > 0.0);
+    if (!touches) continue;
+    const Vec3& point = o.corners[0];
+    for (size_t p = 0, count = pieces.size(); p < count; ++p) {
+      back = pieces[p];
+      const double front_share = clip_to_front(pieces[p], point, o.normal, plane_epsilon_);
+      if (front_share >= 1.0) continue;  // wholly in front: not cut
+      const double back_share = clip_to_front(back, point, -o.normal, plane_epsilon_);
+      if (front_share <= 0.0) {  // wholly behind (or a sliver in front): not cut either
+        if (back_share > 0.0) pieces[p] = back;
+        continue;
+      }
+      const double share = shares[p];
+      shares[p] = share * front_share;
+      if (back_share > 0.0) {
+        pieces.push_back(back);
+        shares.push_back(share * back_share);
+      }
+    }
+  }
+}
+
 double ExactFormFactors::clipped_pair(size_t i, size_t j, std::span<const Vec3> from,
                                       std::span<const Vec3> to, std::span<const Occluder> occluders,
-                                      double floor, RowCost& cost) const {
+                                      double floor, long long max_evaluations, RowCost& cost,
+                                      double* error) const {
   const Vec3 n = mesh_.normal[i], to_normal = mesh_.normal[j];
   const double epsilon = plane_epsilon_;
   thread_local VisibleScratch scratch;
@@ -266,9 +354,75 @@ double ExactFormFactors::clipped_pair(size_t i, size_t j, std::span<const Vec3> 
   long long evaluations = 0;
   const double f =
       polygon_integral_adaptive({from, n}, {to, to_normal}, &visible, options_.tolerance, floor,
-                                options_.max_depth, &evaluations);
+                                options_.max_depth, &evaluations, max_evaluations, error);
   cost.kernel_evaluations += uint64_t(evaluations);
   return f > 0.0 ? f : 0.0;
+}
+
+void ExactFormFactors::record_excess(size_t i, size_t j, double excess) const {
+  const uint64_t key = uint64_t(i) * uint64_t(mesh_.size()) + uint64_t(j);
+  const std::lock_guard<std::mutex> lock(excess_mutex_);
+  if (!capped_pairs_.insert(key).second) return;  // recomputed (row by row: once from each row)
+  row_excess_[i] += excess;
+  row_excess_[j] += reciprocal(excess, mesh_.area[i], mesh_.area[j]);
+}
+
+double ExactFormFactors::row_excess(size_t i) const {
+  const std::lock_guard<std::mutex> lock(excess_mutex_);
+  return i < row_excess_.size() ? row_excess_[i] : 0.0;
+}
+
+double ExactFormFactors::largest_row_excess() const {
+  const std::lock_guard<std::mutex> lock(excess_mutex_);
+  double largest = 0.0;
+  for (double e : row_excess_) largest = std::max(largest, e);
+  return largest;
+}
+
+size_t ExactFormFactors::pairs_capped() const {
+  const std::lock_guard<std::mutex> lock(excess_mutex_);
+  return capped_pairs_.size() + loaded_pairs_;
+}
+
+std::vector<double> ExactFormFactors::row_excesses() const {
+  const std::lock_guard<std::mutex> lock(excess_mutex_);
+  return row_excess_;
+}
+
+void ExactFormFactors::set_row_excesses(std::vector<double> excess, size_t pairs) const {
+  const std::lock_guard<std::mutex> lock(excess_mutex_);
+  row_excess_ = std::move(excess);
+  capped_pairs_.clear();
+  loaded_pairs_ = pairs;
+}
+
+void save_row_excess(const ExactFormFactors& method, const std::string& matrix_file) {
+  const std::vector<double> rows = method.row_excesses();
+  std::vector<double> data(rows.size() + 1, double(method.pairs_capped()));
+  std::copy(rows.begin(), rows.end(), data.begin() + 1);
+  const std::string temporary = matrix_file + ".excess.tmp";
+  {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    out.write(reinterpret_cast<const char*>(data.data()),
+              std::streamsize(data.size() * sizeof(double)));
+    if (!out) return;  // without it the cached matrix is not used (load_row_excess)
+  }
+  std::error_code ignored;
+  std::filesystem::rename(temporary, matrix_file + ".excess", ignored);
+}
+
+bool load_row_excess(const ExactFormFactors& method, const std::string& matrix_file, size_t n) {
+  std::ifstream in(matrix_file + ".excess", std::ios::binary);
+  if (!in) return false;
+  std::vector<double> data(n + 1);
+  in.read(reinterpret_cast<char*>(data.data()), std::streamsize(data.size() * sizeof(double)));
+  if (!in || in.peek() != std::char_traits<char>::eof()) return false;
+  for (double v : data)
+    if (!(v >= 0.0) || !std::isfinite(v)) return false;
+  const size_t pairs = size_t(data[0]);
+  data.erase(data.begin());
+  method.set_row_excesses(std::move(data), pairs);
+  return true;
 }
 
 void ExactFormFactors::row(size_t i, std::span<double> out, RowCost& cost) const {

@@ -32,15 +32,32 @@
 // integrand is continuous; its derivative jumps where a shadow edge crosses an edge of j, which
 // the rule refines like a shared edge). No seed.
 //
+//   Work cap (clip mode). Where the visible part changes abruptly the adaptive rule converges
+// slowly: along a kink line (a shadow edge crossing an edge of j) its error falls as 4^-depth,
+// so tolerance 1e-10 needs ~17 levels; along the line where an occluder stands on i (a box on a
+// floor) the integrand jumps and the error falls only as 2^-depth. builtin:cornell at the
+// default tolerance did not finish in 10 CPU minutes. So a clipped pair stops after
+// `max_evaluations` integrand evaluations (or at max_depth) with its remaining estimated error
+// (the adaptive rule's leaf estimates, polygon_integral.h), and whatever of that exceeds
+// tolerance * F_ij is added to the stated error of rows i and j (largest_row_excess();
+// diagnostics.cpp's stated_row_sum_error). The tolerance is then not what the row meets: the
+// stated error says so. Cost: at most max_evaluations clipped evaluations per occluded pair.
+// An occluder touching i's plane (standing on i) would leave a jump inside i: i is split along
+// its plane into convex pieces first (split_on_contacts), so the jump lies on the pieces' edges
+// and the rule converges there (docs/formfactors.md, "Work cap of clip mode").
+//
 // Left out: pairs facing away or coplanar (no work, pairs_culled); visibility rays wherever
 // nothing can occlude (pairs_unoccluded).
 //
 // Parameters: tolerance (relative, per pair, 1e-10), max_depth (subdivision levels,
 // 16), visibility (refuse | rays | clip, refuse), rays (per pair that may be blocked, 64; only with
-// visibility=rays), seed (0; only with visibility=rays).
+// visibility=rays), seed (0; only with visibility=rays), max_evaluations (per occluded pair,
+// 20000; only with visibility=clip).
 #pragma once
 
 #include <memory>
+#include <mutex>
+#include <unordered_set>
 
 #include "radlab/formfactor/double_area.h"
 #include "radlab/formfactor/form_factor_method.h"
@@ -58,6 +75,9 @@ struct ExactOptions {
   int rays = 64;                 // visibility rays per pair that may be blocked (rays mode)
   uint64_t seed = 0;             // jitter of the visibility points (rays mode)
   bool visibility_clip = false;  // true: clip P_j by the occluders' shadows (deterministic)
+  // clip mode: integrand evaluations per occluded pair before the adaptive rule stops short of
+  // the tolerance and states its remaining estimated error instead (see "Work cap" above)
+  long long max_evaluations = 20000;
 
   static ExactOptions from(ParamBag& bag);
   void validate() const;
@@ -91,6 +111,19 @@ class ExactFormFactors final : public FormFactorMethod {
   static double reciprocal(double f_ab, double area_a, double area_b) {
     return f_ab * (area_a / area_b);
   }
+  // clip mode: the largest, over the rows, of the row's stated error beyond `tolerance`: the sum
+  // over its pairs stopped by max_evaluations (or max_depth) of their remaining estimated error
+  // less tolerance * F (0 when every pair reached the tolerance). Covers the pairs integrated so
+  // far in this process; thread-safe.
+  double largest_row_excess() const;
+  double row_excess(size_t i) const;
+  // How many pairs so far stopped short of the tolerance (each unordered pair once).
+  size_t pairs_capped() const;
+  // Whether the method records row excesses (clip mode on a scene that can occlude): a matrix
+  // loaded from the cache then needs them from the file kept beside it (save_/load_row_excess).
+  bool records_row_excess() const { return !row_excess_.empty(); }
+  std::vector<double> row_excesses() const;
+  void set_row_excesses(std::vector<double> excess, size_t pairs) const;
 
  private:
   // The highest fixed Gauss order tried on separated unoccluded pairs (then adaptive).
@@ -109,7 +142,25 @@ class ExactFormFactors final : public FormFactorMethod {
   double unoccluded(size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to,
                     double kept, RowCost& cost) const;
   double clipped_pair(size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to,
-                      std::span<const Occluder> occluders, double floor, RowCost& cost) const;
+                      std::span<const Occluder> occluders, double floor, long long max_evaluations,
+                      RowCost& cost, double* error) const;
+  void split_on_contacts(size_t i, std::span<const Vec3> from, std::span<const Occluder> occluders,
+                         std::vector<std::vector<Vec3>>& pieces, std::vector<double>& shares) const;
+  // Records pair (i, j)'s error beyond tolerance (absolute, in F_ij; integrated over i) in rows i
+  // and j, once per unordered pair however often the pair is recomputed.
+  void record_excess(size_t i, size_t j, double excess) const;
+  mutable std::mutex excess_mutex_;
+  mutable std::unordered_set<uint64_t> capped_pairs_;  // i * n + j of the pairs recorded
+  mutable std::vector<double> row_excess_;             // per row, F units
+  mutable size_t loaded_pairs_ = 0;                    // pairs_capped of a loaded matrix
 };
+
+// clip mode's row excesses beside a cached matrix file (`matrix_file` + ".excess": the count of
+// pairs stopped short, then n doubles; written to a temporary name and renamed). load_ returns
+// false (and changes nothing) when the file is missing, of the wrong size or holds a negative or
+// non-finite value: the caller must then not use the cached matrix (its stated error would
+// lack the pairs stopped short), but rebuild it.
+void save_row_excess(const ExactFormFactors& method, const std::string& matrix_file);
+bool load_row_excess(const ExactFormFactors& method, const std::string& matrix_file, size_t n);
 
 }  // namespace radlab

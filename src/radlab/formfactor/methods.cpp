@@ -33,7 +33,10 @@ const std::vector<FormFactorMethodInfo>& form_factor_methods() {
          "refuse: exit 3 if anything can occlude; rays: multiply by raycast V; clip: clip j by "
          "the occluders' shadows at every quadrature point (deterministic)"},
         {"rays", "64: visibility rays per pair that may be blocked (visibility=rays only)"},
-        {"seed", "0: seed of the visibility points (visibility=rays only)"}}},
+        {"seed", "0: seed of the visibility points (visibility=rays only)"},
+        {"max_evaluations",
+         "20000: evaluations per occluded pair before it stops short of the tolerance and states "
+         "its remaining error (visibility=clip only)"}}},
   };
   return table;
 }

@@ -166,12 +166,17 @@ Cell prepare(const Quad& corners, double own, int depth, double parent_error, co
 // share of the integral however poorly resolved relative to their own size, stop once their
 // absolute error is small. (The rule this replaces asked every cell for `tolerance` relative to
 // its own value, so it refined every cell along a shared edge to max_depth.)
+// With `max_evaluations` > 0 it also stops once the integrand has been evaluated that often
+// (`*f.evaluations` counted from the call), and `remaining`, if given, receives the estimated
+// error of the returned value: the leaves' estimates plus those of the cells kept at max_depth.
 double integrate_cells(std::span<const Quad> roots, const Integrand& f, double tolerance,
-                       double floor, int max_depth) {
+                       double floor, int max_depth, long long max_evaluations = 0,
+                       double* remaining = nullptr) {
   thread_local std::vector<Cell> heap;
   heap.clear();
   const auto by_error = [](const Cell& a, const Cell& b) { return a.error < b.error; };
-  double value = 0.0, error = 0.0, settled = 0.0;
+  double value = 0.0, error = 0.0, settled = 0.0, settled_error = 0.0;
+  const long long start = *f.evaluations;
   auto push = [&](const Cell& cell) {
     heap.push_back(cell);
     value += cell.value;
@@ -184,6 +189,7 @@ double integrate_cells(std::span<const Quad> roots, const Integrand& f, double t
     // A non-finite value does not improve with refinement: return it (diagnostics report it).
     if (!std::isfinite(value) || !std::isfinite(error)) return value + error;
     if (!first && error <= std::max(tolerance * std::abs(value + settled), floor)) break;
+    if (max_evaluations > 0 && *f.evaluations - start >= max_evaluations) break;
     std::pop_heap(heap.begin(), heap.end(), by_error);
     const Cell cell = heap.back();
     heap.pop_back();
@@ -191,6 +197,7 @@ double integrate_cells(std::span<const Quad> roots, const Integrand& f, double t
     error -= cell.error;
     if (cell.depth >= max_depth) {  // as fine as allowed: keep its estimate
       settled += cell.value;
+      settled_error += cell.estimated_error;
       continue;
     }
     const auto kids = quarters(cell.corners);
@@ -198,8 +205,9 @@ double integrate_cells(std::span<const Quad> roots, const Integrand& f, double t
       push(prepare(kids[k], cell.children[k], cell.depth + 1, cell.estimated_error, f));
     error = std::max(error, 0.0);  // the running sums drift; the test needs a few digits only
   }
-  double total = settled;  // a fresh sum over the leaves
-  for (const Cell& cell : heap) total += cell.value;
+  double total = settled, left = settled_error;  // fresh sums over the leaves
+  for (const Cell& cell : heap) total += cell.value, left += cell.error;
+  if (remaining) *remaining = left;
   return total;
 }
 
@@ -218,7 +226,9 @@ double polygon_form_factor_adaptive(const PolygonRef& from, const PolygonRef& to
 
 double polygon_integral_adaptive(const PolygonRef& from, const PolygonRef& to,
                                  const PointIntegrand* integrand, double relative_tolerance,
-                                 double absolute_floor, int max_depth, long long* evaluations) {
+                                 double absolute_floor, int max_depth, long long* evaluations,
+                                 long long max_evaluations, double* estimated_error) {
+  if (estimated_error) *estimated_error = 0.0;
   const std::span<const Vec3> c = from.corners;
   const double area = cell_area(c);
   if (!(area > 0.0)) return 0.0;
@@ -236,8 +246,15 @@ double polygon_integral_adaptive(const PolygonRef& from, const PolygonRef& to,
   for (size_t k = 0; k < to.corners.size(); ++k)
     shortest =
         std::min(shortest, glm::distance(to.corners[k], to.corners[(k + 1) % to.corners.size()]));
-  const Integrand f{from.normal, to, evaluations, shortest, integrand};
-  return integrate_cells(roots, f, relative_tolerance, absolute_floor * area, max_depth) / area;
+  long long counted = 0;  // the cap needs a count even when the caller asks for none
+  const Integrand f{from.normal, to, &counted, shortest, integrand};
+  double remaining = 0.0;
+  const double mean = integrate_cells(roots, f, relative_tolerance, absolute_floor * area,
+                                      max_depth, max_evaluations, &remaining) /
+                      area;
+  if (evaluations) *evaluations += counted;
+  if (estimated_error) *estimated_error = remaining / area;
+  return mean;
 }
 
 double clip_to_front(std::vector<Vec3>& corners, const Vec3& point, const Vec3& normal,

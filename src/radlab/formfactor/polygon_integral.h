@@ -41,11 +41,19 @@ double polygon_form_factor_adaptive(const PolygonRef& from, const PolygonRef& to
 // The same adaptive rule with another integrand g(x) over P_i in place of F_{dx->P_j} (null:
 // F_{dx->P_j} itself): the mean of g over P_i. `to` still steers the refinement near P_j. For
 // integrands bounded by F_{dx->P_j} (the visible part of P_j, exact.h's clip mode).
+//   `max_evaluations` (> 0) caps the work: the rule then also stops, before the tolerance, once
+// it has evaluated the integrand that often (checked before each split, so it may exceed the cap
+// by one split's 144: each of 4 children is prepared with its own 4 children's 3x3 rules).
+// `estimated_error`, if given, receives the rule's estimated error of the result (in its units, a
+// mean over P_i): the sum of its leaves' estimates, including cells kept at max_depth — within the
+// tolerance when the rule converged, larger when the cap or the depth limit stopped it, so the
+// caller can state it.
 using PointIntegrand = std::function<double(const Vec3&)>;
 double polygon_integral_adaptive(const PolygonRef& from, const PolygonRef& to,
                                  const PointIntegrand* integrand, double relative_tolerance,
                                  double absolute_floor, int max_depth,
-                                 long long* evaluations = nullptr);
+                                 long long* evaluations = nullptr, long long max_evaluations = 0,
+                                 double* estimated_error = nullptr);
 
 // The integrand F_{dx -> P_j} is zero for x behind P_j's plane and jumps there when P_i straddles
 // that plane (elements not split where another polygon stands on them, e.g. a box on a floor):
