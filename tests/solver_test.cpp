@@ -24,6 +24,7 @@
 #include "radlab/core/error.h"
 #include "radlab/core/random.h"
 #include "radlab/formfactor/exact.h"
+#include "radlab/formfactor/hemicube.h"
 #include "radlab/formfactor/raycast.h"
 #include "radlab/metrics/error_metrics.h"
 #include "radlab/scene/builtin_scenes.h"
@@ -166,8 +167,23 @@ INSTANTIATE_TEST_SUITE_P(Gathering, Furnace, ::testing::Values("jacobi", "gauss-
 // ---------------------------------------------------------------------------------------------
 // Conjugate gradients.
 
+// A matrix that is not reciprocal: the hemicube's rows, each from one point of its element (raycast
+// integrates every unoccluded pair once, so its raw matrix is reciprocal to rounding).
+std::unique_ptr<testing::Setup> hemicube_setup(const std::string& spec, int subdiv) {
+  auto s = std::make_unique<testing::Setup>();
+  s->scene = make_builtin_scene(spec);
+  validate_scene(s->scene);
+  s->mesh = build_mesh(s->scene, {subdiv, 0.0});
+  HemicubeFormFactors ff(s->scene, s->mesh, HemicubeOptions{});
+  BuildReport report;
+  s->matrix = build_matrix(ff, s->mesh.size(), Precision::kFloat, report);
+  s->system = std::make_unique<System>(s->scene, s->mesh, s->matrix);
+  s->reference = compute_reference(*s->system, s->matrix);
+  return s;
+}
+
 TEST(ConjugateGradient, RefusesNonReciprocalFormFactors) {
-  auto s = setup("cornell", 2);  // raw: relative reciprocity defect up to 1
+  auto s = hemicube_setup("cornell", 2);  // raw hemicube rows: relative reciprocity defect ~1
   auto solver = make("conjugate-gradient");
   try {
     solver->init(*s->system);
@@ -189,7 +205,7 @@ TEST(ConjugateGradient, SymmetriseSolvesTheSymmetrisedSystem) {
   // symmetrised system, F_ij <- (A_i F_ij + A_j F_ji) / (2 A_i) (computed here from a double
   // copy) to 1e-9: certified reference bound ~1e-12, and the one-pass symmetric product is exact
   // up to double rounding.
-  auto s = setup("cornell", 2);
+  auto s = hemicube_setup("cornell", 2);
   FormFactorMatrix sym(s->n(), Precision::kDouble);
   const auto& area = s->mesh.area;
   for (size_t i = 0; i < s->n(); ++i)

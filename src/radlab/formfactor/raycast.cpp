@@ -82,6 +82,19 @@ int RaycastFormFactors::fixed_order(size_t i, size_t j) const {
 }
 
 double RaycastFormFactors::unoccluded(size_t i, size_t j, RowCost& cost) const {
+  // F^u_ij A_i = F^u_ji A_j: the pair is integrated once, over the smaller element (the lower
+  // index where the areas are equal), and the other direction follows by reciprocity. The outer
+  // numerical integral is the hard one: over a large element next to a small or thin one, its
+  // integrand F_{dx->P_j} is peaked within the small element's size of it, which the adaptive
+  // rule resolves slowly or (for a sliver, aspect 1e-6) misses (80% low, tests/
+  // raycast_reciprocity_test.cpp), while over the small element the large one's integrand is
+  // smooth. Both rows then hold the same integral, so F^u is reciprocal to rounding.
+  const double ai = mesh_.area[i], aj = mesh_.area[j];
+  if (aj < ai || (aj == ai && j < i)) return unoccluded_over(j, i, cost) * (aj / ai);
+  return unoccluded_over(i, j, cost);
+}
+
+double RaycastFormFactors::unoccluded_over(size_t i, size_t j, RowCost& cost) const {
   thread_local std::vector<Vec3> from, to;
   mesh_.corners(i, from);
   mesh_.corners(j, to);
@@ -122,6 +135,9 @@ double RaycastFormFactors::unoccluded(size_t i, size_t j, RowCost& cost) const {
   // (trust_test's corner cube) came out 2.4e-3 too high for a tolerance of 1e-4 (the same at
   // 1e-3: the first estimate was accepted); from 4 x 4 cells it is within 4e-6
   // (RaycastQuadrature.TouchingPairMeetsTheTolerance).
+  // (A start graded towards j's outline under one global rule, polygon_form_factor_graded, took
+  // a third of the work on examp1.mgf but was up to 2.6e-4 off for slivers along a wall, against
+  // a tolerance of 1e-4: docs/formfactors.md, "Graded starts".)
   const int split = lowest > 0.0 ? int(std::min(64.0, std::ceil(diameter / (16.0 * lowest)))) : 4;
   double f = 0.0;
   if (split >= 4) {

@@ -83,6 +83,8 @@ class RaycastFormFactors final : public FormFactorMethod {
 
  private:
   double unoccluded(size_t i, size_t j, RowCost& cost) const;
+  // F^u_ij by the integral over i (unoccluded() chooses the side).
+  double unoccluded_over(size_t i, size_t j, RowCost& cost) const;
   double pair_with_variance(size_t i, size_t j, RowCost& cost, double& variance) const;
   int order_for(size_t i, size_t j, std::span<const Vec3> from, double kept) const;
 
