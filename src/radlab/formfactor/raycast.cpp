@@ -121,9 +121,20 @@ double RaycastFormFactors::unoccluded_over(size_t i, size_t j, RowCost& cost) co
   // most 30. With a fixed 10 a pair 1 mm apart stopped at cells of 1 mm, 2.4e-3 off for a
   // tolerance of 1e-4 (tests/ffvalid_test.cpp).
   const double diameter = 2.0 * radius_[i];
+  // A thin i (a sliver: width = 2 area / longest edge far below its diameter) needs the same
+  // number of levels for its width: halving cells along its length leaves them as wide as i
+  // until they are as short as i is wide, and where i touches j near its short edge the
+  // integrand changes on that scale. A floor sliver of aspect 1e-4 touching a wall's corner
+  // stopped at 10 levels, cells of 1.2e-4 for a width of 5e-5, and converged to 5.9e-4 below
+  // the value (the same at tolerance 1e-7; tests/raycast_reciprocity_test.cpp).
+  double longest = 0.0;
+  for (size_t k = 0; k < from.size(); ++k)
+    longest = std::max(longest, glm::distance(from[k], from[(k + 1) % from.size()]));
+  const double width = longest > 0.0 ? 2.0 * geometry::area(from) / longest : diameter;
+  const double scale = lowest > 0.0 ? std::min(lowest, width) : width;
   const int depth =
-      lowest > 0.0
-          ? std::clamp(int(std::ceil(std::log2(std::max(diameter / lowest, 1.0)))) + 3, 10, 30)
+      scale > 0.0
+          ? std::clamp(int(std::ceil(std::log2(std::max(diameter / scale, 1.0)))) + 3, 10, 30)
           : 10;
   // A pair much closer than its size (lowest < diameter / 64): the integrand falls off within
   // ~lowest of j's outline, a layer the adaptive rule's 3x3 points on large cells never land in,
