@@ -17,6 +17,7 @@
 #include "radlab/formfactor/raycast.h"
 #include "radlab/scene/mesh.h"
 #include "radlab/scene/scene_loader.h"
+#include "radlab/scene/validate.h"
 #include "tests/test_support.h"
 
 namespace radlab {
@@ -98,6 +99,51 @@ TEST(RaycastReciprocity, SliversOfAspect1e4SubdividedMeetTheTolerance) {
   EXPECT_LE(std::abs(f - g), RaycastOptions{}.tolerance * g) << f << " against " << g;
   expect_reciprocal(m);
   expect_rows_within_tolerance(m);
+}
+
+}  // namespace
+}  // namespace radlab
+
+namespace radlab {
+namespace {
+
+// A closed unit box 1 km from the origin whose wall x = 0 has a corner triangle of legs 3e-5 m
+// (area 4.5e-10 m²) cut off. Newell's area formula loses much of such a triangle there (its
+// rounding, ~1e-16 of the coordinates squared, is ~1e-10), and raycast weighted its pieces by it
+// (the triangle's row summed to 1.187 here), and divided by it: hospital.mgf's
+// matrix had rows summing to 143 and 4 non-finite entries once pairs were integrated over their
+// smaller element. Every row of a closed convex box sums to 1 within the tolerance.
+TEST(RaycastReciprocity, TinyTriangleFarFromTheOriginKeepsRowsAtOne) {
+  const double x = 1000.0, e = 3e-5;
+  Scene scene = testing::scene_of({}, 0.5, 0.0);
+  scene.materials.push_back(Material{"lamp", Rgb(0.5), Rgb(1.0)});
+  auto face = [&](std::vector<Vec3> corners, int material, const char* name) {
+    for (Vec3& c : corners) c += Vec3(x);
+    std::reverse(corners.begin(), corners.end());  // listed clockwise from inside: inward normals
+    scene.polygons.push_back(Polygon{corners, material, name});
+  };
+  face({{0, 0, 0}, {0, 1, 0}, {1, 1, 0}, {1, 0, 0}}, 1, "lamp z=0");
+  face({{0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}}, 0, "z=1");
+  face({{0, 0, 0}, {1, 0, 0}, {1, 0, 1}, {0, 0, 1}}, 0, "y=0");
+  face({{0, 1, 0}, {0, 1, 1}, {1, 1, 1}, {1, 1, 0}}, 0, "y=1");
+  face({{1, 0, 0}, {1, 1, 0}, {1, 1, 1}, {1, 0, 1}}, 0, "x=1");
+  // x = 0, facing +x: the tiny corner triangle at (0, 0, 0) and the rest.
+  face({{0, 0, 0}, {0, 0, e}, {0, e, 0}}, 0, "x=0 corner");
+  face({{0, e, 0}, {0, 0, e}, {0, 0, 1}, {0, 1, 1}, {0, 1, 0}}, 0, "x=0 rest");
+  validate_scene(scene, false);
+  const Mesh mesh = build_mesh(scene, {1, 0.0});
+  ASSERT_EQ(mesh.size(), 7u);
+  const RaycastFormFactors raycast(scene, mesh, {});
+  BuildReport report;
+  const FormFactorMatrix F = build_matrix(raycast, mesh.size(), Precision::kDouble, report);
+  for (size_t i = 0; i < mesh.size(); ++i) {
+    double sum = 0.0;
+    for (size_t j = 0; j < mesh.size(); ++j) {
+      ASSERT_TRUE(std::isfinite(F.at(i, j))) << i << ", " << j;
+      sum += F.at(i, j);
+    }
+    EXPECT_NEAR(sum, 1.0, RaycastOptions{}.tolerance) << "row " << i;
+  }
 }
 
 }  // namespace
