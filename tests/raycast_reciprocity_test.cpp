@@ -133,6 +133,12 @@ TEST(RaycastReciprocity, TinyTriangleFarFromTheOriginKeepsRowsAtOne) {
   validate_scene(scene, false);
   const Mesh mesh = build_mesh(scene, {1, 0.0});
   ASSERT_EQ(mesh.size(), 7u);
+  // The mesh's own area of the triangle (geometry::area), used by the solvers and metrics, to the
+  // rounding of its corners' coordinates: ulp(1000) = 1.1e-13 on legs of 3e-5, 4e-9 each.
+  size_t corner = 0;
+  while (corner < mesh.size() && mesh.area[corner] > 1e-6) ++corner;
+  ASSERT_LT(corner, mesh.size());
+  EXPECT_NEAR(mesh.area[corner], 0.5 * e * e, 1e-8 * 0.5 * e * e);
   const RaycastFormFactors raycast(scene, mesh, {});
   BuildReport report;
   const FormFactorMatrix F = build_matrix(raycast, mesh.size(), Precision::kDouble, report);
