@@ -32,22 +32,34 @@ struct Setup {
   std::span<const double> area() const { return system->area(); }
 };
 
-inline std::unique_ptr<Setup> setup_scene(Scene scene, int subdiv,
-                                          Precision precision = Precision::kFloat,
-                                          bool symmetrised = false) {
+// The scene's system and certified reference, with the form factors of the method that
+// `make_method(scene, mesh)` returns.
+template <class MakeMethod>
+std::unique_ptr<Setup> setup_scene_with(Scene scene, int subdiv, Precision precision,
+                                        bool symmetrised, MakeMethod&& make_method) {
   auto s = std::make_unique<Setup>();
   s->scene = std::move(scene);
   validate_scene(s->scene);
   s->mesh = build_mesh(s->scene, {subdiv, 0.0});
-  RaycastOptions options;
-  options.rays = 4;
-  RaycastFormFactors ff(s->scene, s->mesh, options);
+  const auto ff = make_method(s->scene, s->mesh);
   BuildReport report;
-  s->matrix = build_matrix(ff, s->mesh.size(), precision, report);
+  s->matrix = build_matrix(*ff, s->mesh.size(), precision, report);
   if (symmetrised) symmetrise(s->matrix, s->mesh.area);
   s->system = std::make_unique<System>(s->scene, s->mesh, s->matrix);
   s->reference = compute_reference(*s->system, s->matrix);
   return s;
+}
+
+// The same with raycast form factors (4 rays per pair).
+inline std::unique_ptr<Setup> setup_scene(Scene scene, int subdiv,
+                                          Precision precision = Precision::kFloat,
+                                          bool symmetrised = false) {
+  return setup_scene_with(std::move(scene), subdiv, precision, symmetrised,
+                          [](const Scene& sc, const Mesh& mesh) {
+                            RaycastOptions options;
+                            options.rays = 4;
+                            return std::make_unique<RaycastFormFactors>(sc, mesh, options);
+                          });
 }
 
 inline std::unique_ptr<Setup> setup(const std::string& spec, int subdiv,

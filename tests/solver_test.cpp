@@ -170,16 +170,11 @@ INSTANTIATE_TEST_SUITE_P(Gathering, Furnace, ::testing::Values("jacobi", "gauss-
 // A matrix that is not reciprocal: the hemicube's rows, each from one point of its element (raycast
 // integrates every unoccluded pair once, so its raw matrix is reciprocal to rounding).
 std::unique_ptr<testing::Setup> hemicube_setup(const std::string& spec, int subdiv) {
-  auto s = std::make_unique<testing::Setup>();
-  s->scene = make_builtin_scene(spec);
-  validate_scene(s->scene);
-  s->mesh = build_mesh(s->scene, {subdiv, 0.0});
-  HemicubeFormFactors ff(s->scene, s->mesh, HemicubeOptions{});
-  BuildReport report;
-  s->matrix = build_matrix(ff, s->mesh.size(), Precision::kFloat, report);
-  s->system = std::make_unique<System>(s->scene, s->mesh, s->matrix);
-  s->reference = compute_reference(*s->system, s->matrix);
-  return s;
+  return testing::setup_scene_with(make_builtin_scene(spec), subdiv, Precision::kFloat, false,
+                                   [](const Scene& scene, const Mesh& mesh) {
+                                     return std::make_unique<HemicubeFormFactors>(
+                                         scene, mesh, HemicubeOptions{});
+                                   });
 }
 
 TEST(ConjugateGradient, RefusesNonReciprocalFormFactors) {

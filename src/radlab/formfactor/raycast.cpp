@@ -60,14 +60,6 @@ RaycastFormFactors::RaycastFormFactors(const Scene& scene, const Mesh& mesh, Ray
       visibility_(scene, mesh, options.rays, options.seed, options.shafts, options.max_rays,
                   /*importance_close_pairs=*/true) {
   radius_ = element_radii(mesh);
-  fan_area_.resize(mesh.size());
-  std::vector<Vec3> c;
-  for (size_t e = 0; e < mesh.size(); ++e) {
-    mesh.corners(e, c);
-    Vec3 twice(0.0);
-    for (size_t k = 1; k + 1 < c.size(); ++k) twice += glm::cross(c[k] - c[0], c[k + 1] - c[0]);
-    fan_area_[e] = 0.5 * glm::length(twice);
-  }
   row_sigma_.assign(mesh.size(), std::numeric_limits<float>::quiet_NaN());
 }
 
@@ -102,9 +94,7 @@ double RaycastFormFactors::unoccluded(size_t i, size_t j, RowCost& cost) const {
   // rule resolves slowly or (for a sliver, aspect 1e-6) misses (80% low, tests/
   // raycast_reciprocity_test.cpp), while over the small element the large one's integrand is
   // smooth. Both rows then hold the same integral, so F^u is reciprocal to rounding.
-  // The areas from edge vectors (fan_area_), which keep their relative accuracy for a small
-  // element far from the origin: the ratio scales the entry.
-  const double ai = fan_area_[i], aj = fan_area_[j];
+  const double ai = mesh_.area[i], aj = mesh_.area[j];
   if (ai > 0.0 && (aj < ai || (aj == ai && j < i))) return unoccluded_over(j, i, cost) * (aj / ai);
   return unoccluded_over(i, j, cost);
 }
@@ -169,16 +159,15 @@ double RaycastFormFactors::unoccluded_over(size_t i, size_t j, RowCost& cost) co
   // (trust_test's corner cube) came out 2.4e-3 too high for a tolerance of 1e-4 (the same at
   // 1e-3: the first estimate was accepted); from 4 x 4 cells it is within 4e-6
   // (RaycastQuadrature.TouchingPairMeetsTheTolerance).
-  // (A start graded towards j's outline under one global rule, polygon_form_factor_graded, took
-  // a third of the work on examp1.mgf but was up to 2.6e-4 off for slivers along a wall, against
-  // a tolerance of 1e-4: docs/formfactors.md, "Graded starts".)
+  // (A start graded towards j's outline under one global rule took a third of the work on
+  // examp1.mgf but was up to 2.6e-4 off for slivers along a wall, against a tolerance of 1e-4:
+  // docs/formfactors.md, "Tried, not kept".)
   const int split = lowest > 0.0 ? int(std::min(64.0, std::ceil(diameter / (16.0 * lowest)))) : 4;
   double f = 0.0;
   if (split >= 4) {
-    // Each piece weighted by its area over the pieces' total, from edge vectors relative to its
-    // first corner: Newell's formula (geometry::area) loses the area of a small piece far from
-    // the origin, and shares that did not sum to 1 gave hospital.mgf rows summing to 143 and
-    // non-finite entries (a total of 0).
+    // Each piece weighted by its area over the pieces' total, so that the shares sum to 1 however
+    // the areas round (with Newell's areas, which lost small pieces far from the origin, shares
+    // that did not sum to 1 gave hospital.mgf rows summing to 143 and non-finite entries).
     double total = 0.0, weighted = 0.0;
     thread_local std::vector<Vec3> piece(3);
     for (size_t t = 1; t + 1 < from.size(); ++t) {
@@ -194,8 +183,7 @@ double RaycastFormFactors::unoccluded_over(size_t i, size_t j, RowCost& cost) co
               piece = {o + double(p + 1) * u + double(q) * v,
                        o + double(p + 1) * u + double(q + 1) * v,
                        o + double(p) * u + double(q + 1) * v};
-            const double weight =
-                0.5 * glm::length(glm::cross(piece[1] - piece[0], piece[2] - piece[0]));
+            const double weight = geometry::area(piece);
             if (!(weight > 0.0)) continue;
             total += weight;
             weighted += weight * polygon_integral_adaptive({piece, mesh_.normal[i]}, b, nullptr,

@@ -92,8 +92,7 @@ class RaycastFormFactors final : public FormFactorMethod {
   RaycastOptions options_;
   FixedOrderRule order_rule_;
   double plane_epsilon_ = 0.0;
-  std::vector<double> radius_;    // largest centroid-to-corner distance per element
-  std::vector<double> fan_area_;  // per element: its area from edge vectors (no Newell loss)
+  std::vector<double> radius_;  // largest centroid-to-corner distance per element
   Visibility visibility_;
   mutable std::vector<float> row_sigma_;  // per row: row_sampling_error, NaN until computed
 };
