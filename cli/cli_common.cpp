@@ -59,8 +59,9 @@ void add_mesh_options(CLI::App& command, SceneOptions& o) {
                      "hemicube only), mean (area-weighted mean of the element rows) or auto "
                      "(default: centre with --ff hemicube, else mean)");
   command.add_flag("--keep-overlaps", o.keep_overlaps,
-                   "keep coincident same-facing polygons as they are (default: the later one "
-                   "loses the overlap, with a warning)");
+                   "keep coincident polygons as they are (default: of two same-facing ones the "
+                   "later loses the overlap, of two face to face (a contact) both do, with a "
+                   "warning)");
 }
 
 void add_form_factor_options(CLI::App& command, FormFactorOptions& o, bool with_mode) {

@@ -28,9 +28,12 @@ void add_formfactors_command(CLI::App& app) {
     const ValidationReport& report = problem->loaded.report;
     std::printf(
         "repairs      %d degenerate polygons dropped, %d split into triangles, %d coincident "
-        "same-facing overlaps removed (%d polygons dropped, %d cut), %d back-to-back kept\n",
+        "same-facing overlaps removed (%d polygons dropped, %d cut), %d back-to-back kept, %d "
+        "face-to-face contacts %s (%.4g m^2)\n",
         report.dropped, report.triangulated, report.overlaps.same_facing, report.overlaps.dropped,
-        report.overlaps.clipped, report.overlaps.back_to_back);
+        report.overlaps.clipped, report.overlaps.back_to_back, report.overlaps.contacts,
+        spec.keep_overlaps ? "kept (--keep-overlaps)" : "removed from both",
+        report.overlaps.contact_area);
     std::printf(
         "time         %.3f s on %d threads%s\n", problem->build.seconds, problem->build.threads,
         problem->build.cached

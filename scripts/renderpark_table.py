@@ -42,6 +42,7 @@ def run(radlab, path):
     if n[1]: parts.append(f"{n[1]} split")
     if n[2]: parts.append(f"{n[2]} coincident overlaps removed ({n[3]} dropped, {n[4]} cut)")
     if n[5]: parts.append(f"{n[5]} back-to-back kept")
+    if n[6]: parts.append(f"{n[6]} face-to-face contacts removed from both")
     if n[0]: parts.append(f"{n[0]} degenerate dropped")
     row["repairs"] = "; ".join(parts) or "none"
     return row

@@ -119,18 +119,26 @@ double stated_row_sum_error(const FormFactorMethod& method, std::string* basis) 
   const std::string name = method.name(), p = method.parameters();
   // Float storage rounds each entry by 2^-24 relative: a row sum by at most 6e-8 of itself.
   const double storage = 1e-7;
-  char buffer[300];
+  char buffer[600];
   double error = 0.0;
   if (name == "raycast") {
     const double tolerance = parameter(p, "tolerance", 1e-4);
     const auto* raycast = dynamic_cast<const RaycastFormFactors*>(&method);
     const double sampling = raycast ? raycast->largest_row_sampling_error() : 0.0;
-    error = tolerance + kRowSamplingSigmas * sampling + storage;
+    const double short_of = raycast ? raycast->largest_row_quadrature_excess() : 0.0;
+    error = tolerance + kRowSamplingSigmas * sampling + short_of + storage;
     std::snprintf(buffer, sizeof buffer,
                   "raycast: quadrature tolerance %.3g + float storage 1e-7 + %g standard errors of "
                   "the row's visibility sampling (largest so far %.3g; each row is checked "
                   "against its own)",
                   tolerance, kRowSamplingSigmas, sampling);
+    if (short_of > 0.0) {
+      const size_t used = std::strlen(buffer);
+      std::snprintf(buffer + used, sizeof buffer - used,
+                    " + the row's quadrature left beyond the tolerance where an integral stopped "
+                    "at its depth limit or work cap (largest %.3g, %zu pairs)",
+                    short_of, raycast->pairs_short_of_tolerance());
+    }
   } else if (name == "exact") {
     const double tolerance = parameter(p, "tolerance", 1e-10);
     const bool rays = p.find("visibility=rays") != std::string::npos;
@@ -306,7 +314,10 @@ RowSumCheck check_row_sums(const FormFactorMatrix& matrix, const Scene& scene, c
   return check_row_sums(
       matrix, scene, mesh, tolerance + 1e-7,
       [raycast](size_t i, size_t j) { return raycast->unoccluded_pair(i, j); }, 5, 4,
-      [raycast](size_t i) { return kRowSamplingSigmas * raycast->row_sampling_error(i); });
+      [raycast](size_t i) {
+        return kRowSamplingSigmas * raycast->row_sampling_error(i) +
+               raycast->row_quadrature_excess(i);
+      });
 }
 
 std::string RowSumCheck::headline() const {
@@ -315,7 +326,7 @@ std::string RowSumCheck::headline() const {
       buffer, sizeof buffer,
       "row sums of F [%.6g, %.6g]; %zu row%s above 1 + %.3g%s (the method's stated error)",
       row_sum_min, row_sum_max, rows_above, rows_above == 1 ? "" : "s", stated_error,
-      per_row ? " + the row's visibility allowance" : "");
+      per_row ? " + the row's visibility and quadrature allowance" : "");
   std::string out = buffer;
   if (!tally.empty()) {
     out += "; largest entries of those rows:";

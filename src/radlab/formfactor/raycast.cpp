@@ -19,6 +19,12 @@ namespace radlab {
 // (kernel evaluations; ~20 ms here). 2e5 left F(21, 8) of tests/raycast_reciprocity_test.cpp
 // 3.6e-4 low; 2e6 meets the tolerance there.
 constexpr long long kThinElementEvaluations = 2000000;
+// The work cap of every other adaptive integral (~0.3 s here, and ~90 MB of cells per thread at
+// most). A pair whose gap asks for many levels along a long edge can refine ~2^levels cells along
+// it: once hospital.mgf's window-frame contacts were removed on loading (overlap.h), a build held
+// 24 GB before it was killed (the pair was not identified; docs/formfactors.md). What a capped
+// integral leaves is stated (row_quadrature_excess).
+constexpr long long kAdaptiveEvaluations = 20000000;
 
 RaycastOptions RaycastOptions::from(ParamBag& bag) {
   RaycastOptions o;
@@ -61,6 +67,8 @@ RaycastFormFactors::RaycastFormFactors(const Scene& scene, const Mesh& mesh, Ray
                   /*importance_close_pairs=*/true) {
   radius_ = element_radii(mesh);
   row_sigma_.assign(mesh.size(), std::numeric_limits<float>::quiet_NaN());
+  row_excess_.assign(mesh.size(), std::numeric_limits<float>::quiet_NaN());
+  row_short_.assign(mesh.size(), 0);
 }
 
 std::vector<std::string> RaycastFormFactors::left_out() const {
@@ -86,7 +94,7 @@ int RaycastFormFactors::fixed_order(size_t i, size_t j) const {
   return kept > 0.0 ? order_for(i, j, from, kept) : 0;
 }
 
-double RaycastFormFactors::unoccluded(size_t i, size_t j, RowCost& cost) const {
+double RaycastFormFactors::unoccluded(size_t i, size_t j, RowCost& cost, double* error) const {
   // F^u_ij A_i = F^u_ji A_j: the pair is integrated once, over the smaller element (the lower
   // index where the areas are equal), and the other direction follows by reciprocity. The outer
   // numerical integral is the hard one: over a large element next to a small or thin one, its
@@ -95,11 +103,19 @@ double RaycastFormFactors::unoccluded(size_t i, size_t j, RowCost& cost) const {
   // raycast_reciprocity_test.cpp), while over the small element the large one's integrand is
   // smooth. Both rows then hold the same integral, so F^u is reciprocal to rounding.
   const double ai = mesh_.area[i], aj = mesh_.area[j];
-  if (ai > 0.0 && (aj < ai || (aj == ai && j < i))) return unoccluded_over(j, i, cost) * (aj / ai);
-  return unoccluded_over(i, j, cost);
+  double over = 0.0;
+  if (ai > 0.0 && (aj < ai || (aj == ai && j < i))) {
+    const double f = unoccluded_over(j, i, cost, &over) * (aj / ai);
+    if (error) *error = over * (aj / ai);
+    return f;
+  }
+  const double f = unoccluded_over(i, j, cost, &over);
+  if (error) *error = over;
+  return f;
 }
 
-double RaycastFormFactors::unoccluded_over(size_t i, size_t j, RowCost& cost) const {
+double RaycastFormFactors::unoccluded_over(size_t i, size_t j, RowCost& cost, double* error) const {
+  *error = 0.0;
   thread_local std::vector<Vec3> from, to;
   mesh_.corners(i, from);
   mesh_.corners(j, to);
@@ -143,12 +159,11 @@ double RaycastFormFactors::unoccluded_over(size_t i, size_t j, RowCost& cost) co
   };
   const int gap_depth = levels_for(lowest);
   const int depth = std::max(gap_depth, levels_for(width));
-  // The levels a thin i gets beyond the gap's come with a work cap per integral: where the
-  // integrand is not smooth at the width's scale either (a sliver along a singular edge),
+  // The levels a thin i gets beyond the gap's come with a tighter work cap per integral: where
+  // the integrand is not smooth at the width's scale either (a sliver along a singular edge),
   // the rule would otherwise refine to 30 levels, and a hospital.mgf build held 10 GB of cells
-  // after ten minutes. The cap stops such an integral where the depth limit of 10 stopped it
-  // before, its remaining error left out of the stated error as the depth limit's is.
-  const long long cap = depth > gap_depth ? kThinElementEvaluations : 0;
+  // after ten minutes. Either cap's remaining error is stated, as the depth limit's is.
+  const long long cap = depth > gap_depth ? kThinElementEvaluations : kAdaptiveEvaluations;
   // A pair much closer than its size (lowest < diameter / 64): the integrand falls off within
   // ~lowest of j's outline, a layer the adaptive rule's 3x3 points on large cells never land in,
   // so it converges falsely (1 mm apart: 1.9e-3 off). Start it from cells of ~16 lowest (at most
@@ -168,7 +183,7 @@ double RaycastFormFactors::unoccluded_over(size_t i, size_t j, RowCost& cost) co
     // Each piece weighted by its area over the pieces' total, so that the shares sum to 1 however
     // the areas round (with Newell's areas, which lost small pieces far from the origin, shares
     // that did not sum to 1 gave hospital.mgf rows summing to 143 and non-finite entries).
-    double total = 0.0, weighted = 0.0;
+    double total = 0.0, weighted = 0.0, weighted_error = 0.0;
     thread_local std::vector<Vec3> piece(3);
     for (size_t t = 1; t + 1 < from.size(); ++t) {
       const Vec3 o = from[0], u = (from[t] - o) / double(split),
@@ -186,15 +201,20 @@ double RaycastFormFactors::unoccluded_over(size_t i, size_t j, RowCost& cost) co
             const double weight = geometry::area(piece);
             if (!(weight > 0.0)) continue;
             total += weight;
+            double piece_error = 0.0;
             weighted += weight * polygon_integral_adaptive({piece, mesh_.normal[i]}, b, nullptr,
                                                            options_.tolerance, 1e-14 / kept, depth,
-                                                           &evaluations, cap);
+                                                           &evaluations, cap, &piece_error);
+            weighted_error += weight * piece_error;
           }
     }
     f = total > 0.0 ? weighted / total : 0.0;
+    *error = total > 0.0 ? kept * weighted_error / total : 0.0;
   } else {
+    double estimated = 0.0;
     f = polygon_integral_adaptive(a, b, nullptr, options_.tolerance, 1e-14 / kept, depth,
-                                  &evaluations, cap);
+                                  &evaluations, cap, &estimated);
+    *error = kept * estimated;
   }
   cost.kernel_evaluations += uint64_t(evaluations);
   return kept * f;
@@ -221,19 +241,24 @@ bool pair_faces(const Mesh& mesh, size_t i, size_t j, double epsilon) {
 }
 
 double RaycastFormFactors::pair(size_t i, size_t j, RowCost& cost) const {
-  double variance = 0.0;
-  return pair_with_variance(i, j, cost, variance);
+  double variance = 0.0, excess = 0.0;
+  return pair_with_errors(i, j, cost, variance, excess);
 }
 
-double RaycastFormFactors::pair_with_variance(size_t i, size_t j, RowCost& cost,
-                                              double& variance) const {
+double RaycastFormFactors::pair_with_errors(size_t i, size_t j, RowCost& cost, double& variance,
+                                            double& excess) const {
   variance = 0.0;
+  excess = 0.0;
   if (i == j) return 0.0;
   if (!pair_faces(mesh_, i, j, plane_epsilon_)) {
     ++cost.pairs_culled;
     return 0.0;
   }
-  const double f = unoccluded(i, j, cost);
+  double error = 0.0;
+  const double f = unoccluded(i, j, cost, &error);
+  // The row-sum check allows tolerance * F^u_ij for this entry (F_ij = F^u_ij V_ij <= F^u_ij, so
+  // the excess in F^u bounds the one in F); what an integral stopped short of it left is stated.
+  excess = std::max(0.0, error - options_.tolerance * std::max(f, 0.0));
   if (f <= 0.0) return 0.0;
   double sigma = 0.0;
   const double v = visibility_.fraction(i, j, cost, &sigma);
@@ -248,15 +273,23 @@ double RaycastFormFactors::unoccluded_pair(size_t i, size_t j) const {
 }
 
 void RaycastFormFactors::row(size_t i, std::span<double> out, RowCost& cost) const {
-  double variance = 0.0;
+  double variance = 0.0, excess = 0.0;
+  uint32_t short_pairs = 0;
   for (size_t j = 0; j < out.size(); ++j) {
-    double v = 0.0;
-    out[j] = pair_with_variance(i, j, cost, v);
+    double v = 0.0, e = 0.0;
+    out[j] = pair_with_errors(i, j, cost, v, e);
     variance += v;
+    excess += e;
+    short_pairs += e > 0.0 ? 1 : 0;
   }
   // Rounded up to float, so the stated error never shrinks by storage.
-  const float sigma = float(std::sqrt(variance));
-  row_sigma_[i] = double(sigma) < std::sqrt(variance) ? std::nextafter(sigma, 1e30f) : sigma;
+  const auto up = [](double x) {
+    const float rounded = float(x);
+    return double(rounded) < x ? std::nextafter(rounded, 1e30f) : rounded;
+  };
+  row_sigma_[i] = up(std::sqrt(variance));
+  row_excess_[i] = up(excess);
+  row_short_[i] = short_pairs;
 }
 
 double RaycastFormFactors::row_sampling_error(size_t i) const {
@@ -272,12 +305,40 @@ void RaycastFormFactors::set_row_sampling_errors(std::vector<float> sigma) const
   if (sigma.size() == row_sigma_.size()) row_sigma_ = std::move(sigma);
 }
 
+double RaycastFormFactors::row_quadrature_excess(size_t i) const {
+  if (std::isnan(row_excess_[i])) {
+    std::vector<double> scratch(mesh_.size());
+    RowCost cost;
+    row(i, scratch, cost);
+  }
+  return double(row_excess_[i]);
+}
+
+double RaycastFormFactors::largest_row_quadrature_excess() const {
+  double largest = 0.0;
+  for (float e : row_excess_)
+    if (!std::isnan(e)) largest = std::max(largest, double(e));
+  return largest;
+}
+
+size_t RaycastFormFactors::pairs_short_of_tolerance() const {
+  size_t pairs = 0;
+  for (uint32_t count : row_short_) pairs += count;
+  return pairs;
+}
+
+void RaycastFormFactors::set_row_quadrature_excesses(std::vector<float> excess) const {
+  if (excess.size() == row_excess_.size()) row_excess_ = std::move(excess);
+}
+
 void save_row_sampling_errors(const RaycastFormFactors& method, const std::string& matrix_file) {
-  const std::vector<float> sigma = method.row_sampling_errors();
+  std::vector<float> data = method.row_sampling_errors();
+  const std::vector<float> excess = method.row_quadrature_excesses();
+  data.insert(data.end(), excess.begin(), excess.end());
   const std::string temporary = matrix_file + ".sigma.tmp";
   {
     std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    out.write(reinterpret_cast<const char*>(sigma.data()), std::streamsize(sigma.size() * 4));
+    out.write(reinterpret_cast<const char*>(data.data()), std::streamsize(data.size() * 4));
     if (!out) return;  // best effort: without it the check recomputes rows
   }
   std::error_code ignored;
@@ -288,12 +349,17 @@ bool load_row_sampling_errors(const RaycastFormFactors& method, const std::strin
                               size_t n) {
   std::ifstream in(matrix_file + ".sigma", std::ios::binary);
   if (!in) return false;
-  std::vector<float> sigma(n);
-  in.read(reinterpret_cast<char*>(sigma.data()), std::streamsize(n * 4));
+  std::vector<float> data(2 * n);
+  in.read(reinterpret_cast<char*>(data.data()), std::streamsize(2 * n * 4));
+  // The wrong size (another matrix, or the sampling errors alone as written before the excesses
+  // were kept): not used, the check recomputes the rows it needs.
   if (!in || in.peek() != std::char_traits<char>::eof()) return false;
-  for (float s : sigma)
+  for (float s : data)
     if (!(s >= 0.0f) && !std::isnan(s)) return false;  // negative or infinite: not ours
-  method.set_row_sampling_errors(std::move(sigma));
+  method.set_row_quadrature_excesses(
+      std::vector<float>(data.begin() + std::ptrdiff_t(n), data.end()));
+  data.resize(n);
+  method.set_row_sampling_errors(std::move(data));
   return true;
 }
 

@@ -77,15 +77,30 @@ class RaycastFormFactors final : public FormFactorMethod {
   // need not recompute rows; save_/load_row_sampling_errors). Not thread-safe.
   std::vector<float> row_sampling_errors() const { return row_sigma_; }
   void set_row_sampling_errors(std::vector<float> sigma) const;
+  // What row i's F^u integrals left beyond their tolerance, sum_j max(0, e_ij - tolerance F^u_ij)
+  // with e_ij the adaptive rule's estimated error (polygon_integral.h): nonzero only where an
+  // integral stopped at its depth limit (touching pairs) or at the work cap of a thin element,
+  // and added to the row's stated error (diagnostics.h). Known, like row_sampling_error, once the
+  // row has been computed; computed here otherwise. Thread-safe for distinct rows.
+  double row_quadrature_excess(size_t i) const;
+  double largest_row_quadrature_excess() const;
+  // The pairs (ordered, over the rows computed) whose integral stopped short of the tolerance.
+  size_t pairs_short_of_tolerance() const;
+  std::vector<float> row_quadrature_excesses() const { return row_excess_; }
+  void set_row_quadrature_excesses(std::vector<float> excess) const;
   // The order of the Gauss rule the pair's F^u uses (order x order points per fan triangle or
   // quad), or 0 when it goes adaptive or has nothing in front of j's plane. For benchmarks.
   int fixed_order(size_t i, size_t j) const;
 
  private:
-  double unoccluded(size_t i, size_t j, RowCost& cost) const;
+  // F^u_ij; `error`, if given, receives the quadrature's estimated error of it.
+  double unoccluded(size_t i, size_t j, RowCost& cost, double* error = nullptr) const;
   // F^u_ij by the integral over i (unoccluded() chooses the side).
-  double unoccluded_over(size_t i, size_t j, RowCost& cost) const;
-  double pair_with_variance(size_t i, size_t j, RowCost& cost, double& variance) const;
+  double unoccluded_over(size_t i, size_t j, RowCost& cost, double* error) const;
+  // F_ij, the variance of its visibility estimate and what its quadrature left beyond the
+  // tolerance (row_quadrature_excess).
+  double pair_with_errors(size_t i, size_t j, RowCost& cost, double& variance,
+                          double& excess) const;
   int order_for(size_t i, size_t j, std::span<const Vec3> from, double kept) const;
 
   const Mesh& mesh_;
@@ -94,11 +109,14 @@ class RaycastFormFactors final : public FormFactorMethod {
   double plane_epsilon_ = 0.0;
   std::vector<double> radius_;  // largest centroid-to-corner distance per element
   Visibility visibility_;
-  mutable std::vector<float> row_sigma_;  // per row: row_sampling_error, NaN until computed
+  mutable std::vector<float> row_sigma_;     // per row: row_sampling_error, NaN until computed
+  mutable std::vector<float> row_excess_;    // per row: row_quadrature_excess, NaN until computed
+  mutable std::vector<uint32_t> row_short_;  // per row: its pairs short of the tolerance
 };
 
-// Each row's visibility sampling error beside a cached matrix file (`matrix_file` + ".sigma":
-// n floats, written to a temporary name and renamed). load_ returns false (and changes nothing)
+// Each row's visibility sampling error and quadrature excess beside a cached matrix file
+// (`matrix_file` + ".sigma": 2n floats, the n errors then the n excesses, written to a temporary
+// name and renamed). load_ returns false (and changes nothing)
 // when the file is missing, of the wrong size or unreadable: the rows are then recomputed when
 // the check needs them.
 void save_row_sampling_errors(const RaycastFormFactors& method, const std::string& matrix_file);

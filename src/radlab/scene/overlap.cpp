@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <unordered_map>
@@ -123,6 +124,8 @@ OverlapReport resolve_coincident_polygons(Scene& scene, bool keep) {
 
   std::vector<Polygon> out;
   std::vector<Plane> planes;
+  // Earlier polygons (indices into out) and the later polygons in contact with them.
+  std::unordered_map<uint32_t, std::vector<std::vector<Vec3>>> contact_cuts;
   out.reserve(scene.polygons.size());
   auto coincident = [&](const Polygon& a, const Plane& pa, const Polygon& b, const Plane& pb) {
     if (std::abs(glm::dot(pa.normal, pb.normal)) < 1.0 - 1e-9) return false;
@@ -155,20 +158,50 @@ OverlapReport resolve_coincident_polygons(Scene& scene, bool keep) {
               const bool same = glm::dot(planes[e].normal, plane.normal) > 0;
               std::snprintf(buffer, sizeof buffer, " overlap by %.4g m^2 (%.3g%% of the later)",
                             shared, 100.0 * shared / own_area);
-              // Opposite normals: back to back (each behind the other) or face to face.
-              const bool facing = !same && glm::dot(geometry::centroid(polygon.vertices) -
-                                                        geometry::centroid(earlier.vertices),
-                                                    planes[e].normal) > 0;
+              // Opposite normals: the later polygon's distance in front of the earlier one
+              // decides. In front (face to face, each in front of the other) by more than
+              // rounding: a contact, such as a window frame resting on a sill; behind: a
+              // two-sided sheet; within rounding of each other the two cannot be told apart and
+              // the pair is kept as a sheet.
+              const double gap = glm::dot(
+                  geometry::centroid(polygon.vertices) - geometry::centroid(earlier.vertices),
+                  planes[e].normal);
+              const bool contact = !same && gap > kContactGap * diagonal;
+              if (!same)
+                std::snprintf(buffer + std::strlen(buffer), sizeof buffer - std::strlen(buffer),
+                              ", %.3g m apart", gap);
               std::string what = describe(scene, earlier) + " and " + describe(scene, polygon) +
                                  ": coincident " +
-                                 (same     ? "same-facing"
-                                  : facing ? "face-to-face"
-                                           : "back-to-back") +
+                                 (same      ? "same-facing"
+                                  : contact ? "face-to-face"
+                                            : "back-to-back") +
                                  " polygons" + buffer;
-              if (!same) {
+              if (!same && !contact) {
                 ++report.back_to_back;
-                report.warnings.push_back(what +
-                                          (facing ? "; kept" : "; kept (a two-sided sheet)"));
+                report.warnings.push_back(what + (gap > 0 ? "; kept (within rounding: a two-sided "
+                                                            "sheet or a contact)"
+                                                          : "; kept (a two-sided sheet)"));
+                continue;
+              }
+              if (contact) {
+                ++report.contacts;
+                report.contact_area += shared;
+                if (keep) {
+                  report.warnings.push_back(what + "; kept as they are (--keep-overlaps)");
+                  continue;
+                }
+                // Neither side of a contact sees anything but the other: light neither reaches
+                // it nor leaves it, and the rays cannot resolve a gap this small (they would see
+                // past the other polygon). Both lose the overlap; the earlier one below, once
+                // every polygon is placed.
+                contact_cuts[e].push_back(polygon.vertices);
+                std::vector<std::vector<Vec3>> next;
+                for (const auto& piece : pieces)
+                  for (auto& part : geometry::subtract_convex(piece, earlier.vertices))
+                    next.push_back(std::move(part));
+                pieces = std::move(next);
+                cut = true;
+                report.warnings.push_back(what + "; a contact: the overlap removed from both");
                 continue;
               }
               ++report.same_facing;
@@ -200,6 +233,29 @@ OverlapReport resolve_coincident_polygons(Scene& scene, bool keep) {
       planes.push_back(plane);
       out.push_back(Polygon{std::move(piece), polygon.material, polygon.origin});
     }
+  }
+  if (!contact_cuts.empty()) {
+    std::vector<Polygon> cut_out;
+    cut_out.reserve(out.size());
+    for (uint32_t e = 0; e < out.size(); ++e) {
+      const auto found = contact_cuts.find(e);
+      if (found == contact_cuts.end()) {
+        cut_out.push_back(std::move(out[e]));
+        continue;
+      }
+      std::vector<std::vector<Vec3>> pieces{out[e].vertices};
+      for (const std::vector<Vec3>& later : found->second) {
+        std::vector<std::vector<Vec3>> next;
+        for (const auto& piece : pieces)
+          for (auto& part : geometry::subtract_convex(piece, later))
+            next.push_back(std::move(part));
+        pieces = std::move(next);
+      }
+      ++(pieces.empty() ? report.dropped : report.clipped);
+      for (auto& piece : pieces)
+        cut_out.push_back(Polygon{std::move(piece), out[e].material, out[e].origin});
+    }
+    out = std::move(cut_out);
   }
   scene.polygons = std::move(out);
   return report;

@@ -191,7 +191,12 @@ ValidationReport validate_scene(Scene& scene, bool keep_overlaps) {
     report.overlaps = resolve_coincident_polygons(scene, keep_overlaps);
     for (std::string& w : report.overlaps.warnings) report.warnings.push_back(std::move(w));
   }
-  if (scene.polygons.empty()) throw InputError(scene.name + ": the scene has no usable polygons");
+  if (scene.polygons.empty())
+    throw InputError(scene.name + ": the scene has no usable polygons" +
+                     (report.overlaps.dropped > 0
+                          ? " (coincident overlaps and contacts removed them all; "
+                            "--keep-overlaps keeps them)"
+                          : ""));
   return report;
 }
 
@@ -211,7 +216,8 @@ void print_warnings(const ValidationReport& report) {
                  std::to_string(report.dropped) + " polygons dropped, " +
                  std::to_string(report.triangulated) + " split, " +
                  std::to_string(report.overlaps.same_facing) + " coincident same-facing and " +
-                 std::to_string(report.overlaps.back_to_back) + " back-to-back overlaps in all)");
+                 std::to_string(report.overlaps.back_to_back) + " back-to-back and " +
+                 std::to_string(report.overlaps.contacts) + " face-to-face overlaps in all)");
 }
 
 }  // namespace radlab

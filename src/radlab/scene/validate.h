@@ -7,9 +7,9 @@
 //   (MGF and OBJ exports often contain such slivers; they carry no area, so no light);
 // - non-planar beyond kPlanarityTolerance x diameter: split into triangles (each planar);
 // - planar but non-convex: split into triangles by ear clipping;
-// - coincident overlapping polygons (src/radlab/scene/overlap.h): same-facing overlaps removed from
-// the later
-//   polygon unless `keep_overlaps`, back-to-back ones reported.
+// - coincident overlapping polygons (src/radlab/scene/overlap.h): same-facing overlaps removed
+//   from the later polygon and face-to-face contacts from both unless `keep_overlaps`,
+//   back-to-back ones reported.
 // - self-intersecting (two edges cross, e.g. a pentagram), more than kMaxPolygonCorners corners,
 //   coordinates beyond kMaxCoordinate, emission beyond kMaxEmission: InputError.
 #pragma once
