@@ -18,11 +18,14 @@ import subprocess
 import sys
 
 SCENES = ["cube.mgf", "office2/office2.mgf", "corridor.mgf", "salon/classroom.mgf",
-          "office3/office.mgf", "hospital/hosp.mgf"]
+          "office3/office.mgf", "hospital/hosp.mgf", "examp1.mgf", "floor_gloss.mgf",
+          "office1/graz.mgf"]
 
 
-def run(radlab, path):
-    result = subprocess.run([radlab, "formfactors", path], capture_output=True, text=True)
+def run(radlab, path, root):
+    # hospital includes ../Materials: the scenes' folder is the include root
+    result = subprocess.run([radlab, "--mgf-include-root", root, "formfactors", path],
+                            capture_output=True, text=True)
     if result.returncode != 0:
         return {"error": f"exit {result.returncode}: {result.stderr.strip().splitlines()[-1]}"}
     out = result.stdout
@@ -36,6 +39,10 @@ def run(radlab, path):
     sigma = re.search(r"largest so far (\S+);", out)
     if sigma:
         row["stated"] += f" + 5 σ_i, σ_i ≤ {sigma.group(1)}"
+    # and what integrals stopped by a depth limit or work cap left beyond the tolerance, per row
+    short = re.search(r"work cap \(largest (\S+), (\d+) pairs\)", out)
+    if short:
+        row["stated"] += f" + q_i ≤ {short.group(1)} ({short.group(2)} pairs stopped short)"
     r = re.search(r"^repairs\s+(.*)$", out, re.M).group(1)
     n = [int(x) for x in re.findall(r"(\d+)", r)]
     parts = []
@@ -60,7 +67,7 @@ def main():
              "repairs on loading | build (s) |", "|---|---|---|---|---|---|---|"]
     for scene in args.only or SCENES:
         print(f"{scene} ...", file=sys.stderr, flush=True)
-        row = run(args.radlab, os.path.join(args.scenes, scene))
+        row = run(args.radlab, os.path.join(args.scenes, scene), args.scenes)
         if "error" in row:
             lines.append(f"| {scene} | — | — | — | — | {row['error']} | — |")
             continue

@@ -183,6 +183,28 @@ TEST(Cli, ToleranceNotReachedExitsFiveAfterWritingEverything) {
   EXPECT_NE(text.str().find("\"tolerance_reached\": false"), std::string::npos) << text.str();
 }
 
+// --sample-rows computes only the drawn rows; drawing every row checks the same sums as the
+// whole build (the same rows, computed on the fly instead of in a matrix).
+TEST(Cli, FormfactorsSampledRowsCheckWhatTheWholeBuildChecks) {
+  const auto row_sums = [](const std::string& output) {
+    const size_t at = output.find("row sums of F [");
+    return at == std::string::npos ? std::string("missing")
+                                   : output.substr(at, output.find(']', at) - at);
+  };
+  Result whole = radlab("-q formfactors builtin:cornell");
+  ASSERT_EQ(whole.code, 0) << whole.output;
+  Result all = radlab("-q formfactors builtin:cornell --sample-rows 1000000 --sample-seed 3");
+  ASSERT_EQ(all.code, 0) << all.output;
+  EXPECT_OUTPUT_HAS(all, "(the sampled rows)");
+  EXPECT_EQ(row_sums(all.output), row_sums(whole.output));
+  Result some = radlab("-q formfactors builtin:cornell --sample-rows 5");
+  ASSERT_EQ(some.code, 0) << some.output;
+  EXPECT_OUTPUT_HAS(some, "sampled      5 of ");
+  Result refused = radlab("-q formfactors builtin:cornell --sample-rows 5 --out x.csv");
+  EXPECT_EQ(refused.code, 2) << refused.output;
+  EXPECT_OUTPUT_HAS(refused, "drop --sample-rows");
+}
+
 TEST(Cli, FormfactorsAndReferenceWriteCsv) {
   TempDir dir;
   Result f = radlab("-q formfactors builtin:cube --subdiv 2 --out " + dir.file("f.csv"));
