@@ -92,6 +92,14 @@ struct BucketHash {
   }
 };
 
+// Each convex piece minus the convex polygon `b`, as convex pieces.
+void subtract_from_each(std::vector<std::vector<Vec3>>& pieces, const std::vector<Vec3>& b) {
+  std::vector<std::vector<Vec3>> next;
+  for (const auto& piece : pieces)
+    for (auto& part : geometry::subtract_convex(piece, b)) next.push_back(std::move(part));
+  pieces = std::move(next);
+}
+
 std::string describe(const Scene& scene, const Polygon& p) {
   return p.origin + " ('" + scene.materials[size_t(p.material)].name + "')";
 }
@@ -195,11 +203,7 @@ OverlapReport resolve_coincident_polygons(Scene& scene, bool keep) {
                 // past the other polygon). Both lose the overlap; the earlier one below, once
                 // every polygon is placed.
                 contact_cuts[e].push_back(polygon.vertices);
-                std::vector<std::vector<Vec3>> next;
-                for (const auto& piece : pieces)
-                  for (auto& part : geometry::subtract_convex(piece, earlier.vertices))
-                    next.push_back(std::move(part));
-                pieces = std::move(next);
+                subtract_from_each(pieces, earlier.vertices);
                 cut = true;
                 report.warnings.push_back(what + "; a contact: the overlap removed from both");
                 continue;
@@ -210,11 +214,7 @@ OverlapReport resolve_coincident_polygons(Scene& scene, bool keep) {
                 report.warnings.push_back(what + "; kept as they are (--keep-overlaps)");
                 continue;
               }
-              std::vector<std::vector<Vec3>> next;
-              for (const auto& piece : pieces)
-                for (auto& part : geometry::subtract_convex(piece, earlier.vertices))
-                  next.push_back(std::move(part));
-              pieces = std::move(next);
+              subtract_from_each(pieces, earlier.vertices);
               cut = true;
               report.warnings.push_back(what + (pieces.empty()
                                                     ? "; the later one dropped (wholly covered)"
@@ -244,13 +244,7 @@ OverlapReport resolve_coincident_polygons(Scene& scene, bool keep) {
         continue;
       }
       std::vector<std::vector<Vec3>> pieces{out[e].vertices};
-      for (const std::vector<Vec3>& later : found->second) {
-        std::vector<std::vector<Vec3>> next;
-        for (const auto& piece : pieces)
-          for (auto& part : geometry::subtract_convex(piece, later))
-            next.push_back(std::move(part));
-        pieces = std::move(next);
-      }
+      for (const std::vector<Vec3>& later : found->second) subtract_from_each(pieces, later);
       ++(pieces.empty() ? report.dropped : report.clipped);
       for (auto& piece : pieces)
         cut_out.push_back(Polygon{std::move(piece), out[e].material, out[e].origin});
