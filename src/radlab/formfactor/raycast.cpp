@@ -292,12 +292,15 @@ void RaycastFormFactors::row(size_t i, std::span<double> out, RowCost& cost) con
   row_short_[i] = short_pairs;
 }
 
+void RaycastFormFactors::ensure_row_errors(size_t i) const {
+  if (!std::isnan(row_sigma_[i]) && !std::isnan(row_excess_[i])) return;
+  std::vector<double> scratch(mesh_.size());
+  RowCost cost;
+  row(i, scratch, cost);
+}
+
 double RaycastFormFactors::row_sampling_error(size_t i) const {
-  if (std::isnan(row_sigma_[i])) {
-    std::vector<double> scratch(mesh_.size());
-    RowCost cost;
-    row(i, scratch, cost);
-  }
+  ensure_row_errors(i);
   return double(row_sigma_[i]);
 }
 
@@ -306,11 +309,7 @@ void RaycastFormFactors::set_row_sampling_errors(std::vector<float> sigma) const
 }
 
 double RaycastFormFactors::row_quadrature_excess(size_t i) const {
-  if (std::isnan(row_excess_[i])) {
-    std::vector<double> scratch(mesh_.size());
-    RowCost cost;
-    row(i, scratch, cost);
-  }
+  ensure_row_errors(i);
   return double(row_excess_[i]);
 }
 

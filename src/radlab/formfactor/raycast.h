@@ -79,9 +79,9 @@ class RaycastFormFactors final : public FormFactorMethod {
   void set_row_sampling_errors(std::vector<float> sigma) const;
   // What row i's F^u integrals left beyond their tolerance, sum_j max(0, e_ij - tolerance F^u_ij)
   // with e_ij the adaptive rule's estimated error (polygon_integral.h): nonzero only where an
-  // integral stopped at its depth limit (touching pairs) or at the work cap of a thin element,
-  // and added to the row's stated error (diagnostics.h). Known, like row_sampling_error, once the
-  // row has been computed; computed here otherwise. Thread-safe for distinct rows.
+  // integral stopped at its depth limit or at a work cap (raycast.cpp), and added to the row's
+  // stated error (diagnostics.h). Known, like row_sampling_error, once the row has been computed;
+  // computed here otherwise. Thread-safe for distinct rows.
   double row_quadrature_excess(size_t i) const;
   double largest_row_quadrature_excess() const;
   // The pairs (ordered, over the rows computed) whose integral stopped short of the tolerance.
@@ -95,6 +95,8 @@ class RaycastFormFactors final : public FormFactorMethod {
  private:
   // F^u_ij; `error`, if given, receives the quadrature's estimated error of it.
   double unoccluded(size_t i, size_t j, RowCost& cost, double* error = nullptr) const;
+  // Computes row i once if its sampling error or quadrature excess is not known yet.
+  void ensure_row_errors(size_t i) const;
   // F^u_ij by the integral over i (unoccluded() chooses the side).
   double unoccluded_over(size_t i, size_t j, RowCost& cost, double* error) const;
   // F_ij, the variance of its visibility estimate and what its quadrature left beyond the
