@@ -1,15 +1,17 @@
 #!/usr/bin/env python3
 """Row sums of the default form factors on every RenderPark scene: one table for docs/scenes.md.
 
-Runs `radlab formfactors SCENE` (default raycast, dense, symmetrised) on each scene, reads what it
+Runs `radlab formfactors SCENE` (default raycast, sparse, symmetrised) on each scene, reads what it
 prints (elements, repairs on loading, row sums of the computed matrix, build time) and writes the
 markdown table between the markers `<!-- renderpark-rowsums begin -->` and `... end -->` in
 docs/scenes.md (or prints it with --print). Usage, from the repository root:
 
     nice scripts/renderpark_table.py [--radlab build/cli/radlab] [--scenes DIR] [--print]
 
-hospital/hosp.mgf takes minutes; the matrix cache (RADLAB_CACHE_DIR) makes a second run fast, and
-the table then reports the time of the original build.
+All of them take over an hour on 2 cores (soda.mgf, 53,207 elements, most of it; office1/graz.mgf
+and hospital/hosp.mgf 10-20 minutes each); each row is printed to stderr as it is done. The matrix
+cache (RADLAB_CACHE_DIR) makes a second run fast, and the table then reports the time of the
+original build.
 """
 import argparse
 import os
@@ -19,7 +21,7 @@ import sys
 
 SCENES = ["cube.mgf", "office2/office2.mgf", "corridor.mgf", "salon/classroom.mgf",
           "office3/office.mgf", "hospital/hosp.mgf", "examp1.mgf", "floor_gloss.mgf",
-          "office1/graz.mgf"]
+          "office1/graz.mgf", "soda.mgf"]
 
 
 def run(radlab, path, root):
@@ -74,6 +76,7 @@ def main():
         lines.append(f"| {scene} | {row['elements']:,} | {row['min']} | {row['max']} | "
                      f"{row['above']} (stated error {row['stated']}) | {row['repairs']} | "
                      f"{row['seconds']:.1f} |")
+        print(lines[-1], file=sys.stderr, flush=True)
     table = "\n".join(lines) + "\n"
     if args.print:
         sys.stdout.write(table)

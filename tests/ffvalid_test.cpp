@@ -10,6 +10,7 @@
 #include <glm/geometric.hpp>
 
 #include "radlab/formfactor/diagnostics.h"
+#include "radlab/formfactor/exact.h"
 #include "radlab/formfactor/matrix.h"
 #include "radlab/formfactor/raycast.h"
 #include "radlab/formfactor/sampling.h"
@@ -219,6 +220,42 @@ TEST(RaycastNearPairs, ParallelSquaresAMillimetreApartMeetTheTolerance) {
     const double truth = parallel_rectangles(1.0, 1.0, gap);
     EXPECT_NEAR(ff.unoccluded_pair(0, 1) / truth - 1.0, 0.0, 1e-4) << gap << " " << truth;
   }
+}
+
+// One budget per pair (raycast.cpp): a close pair starts from up to 64 x 64 cells per fan
+// triangle, and integrating each cell to the tolerance of its own value, with a work cap each,
+// let a single pair of office1/graz.mgf run for over 10 minutes (its build did not finish): the
+// bottom of a binder (graz.mgf:48361) 5e-5 m above a shelf piece beside it (graz.mgf:33746, cut
+// around the binder on loading), where F^u is ~1e-6 and most cells hold a share far below the
+// tolerance. As the starting cells of one adaptive integral the pair costs 2.3e6 evaluations
+// (the cap is 2e7 beyond the start) and stays within the tolerance of `exact` at 1e-9.
+TEST(RaycastNearPairs, CloseShelfPieceBesideABoxCostsOnePairsWork) {
+  const std::vector<Vec3> bottom = {{3.8666785136175901, 4.0043131794303699, 0.77424999999999999},
+                                    {3.8692993455005698, 3.9967546583950697, 0.77424999999999999},
+                                    {3.83434118571228, 3.9846333109362799, 0.77424999999999999},
+                                    {3.8317203538293003, 3.9921918319715801, 0.77424999999999999}};
+  const std::vector<Vec3> shelf = {{3.8701183554639997, 3.9943926205715412, 0.77420000000000011},
+                                   {3.8762799588990133, 3.9766224577933866, 0.77420000000000011},
+                                   {3.892723030454722, 3.929200376642032, 0.77420000000000011},
+                                   {3.8955574758429599, 3.93018318859815, 0.77420000000000011},
+                                   {3.8729528008522185, 3.9953754325276525, 0.77420000000000011}};
+  Scene scene = scene_of({bottom, shelf});
+  validate_scene(scene, /*keep_overlaps=*/true);
+  const Mesh mesh = build_mesh(scene, {});
+  ASSERT_LT(mesh.normal[0].z, 0.0);  // the bottom faces down, the shelf up
+  ASSERT_GT(mesh.normal[1].z, 0.0);
+  const RaycastFormFactors raycast(scene, mesh, {});
+  std::vector<double> row(2, 0.0);
+  RowCost cost;
+  raycast.row(0, row, cost);
+  EXPECT_LT(cost.kernel_evaluations, 20000000u);
+  ExactOptions exact_options;
+  exact_options.tolerance = 1e-9;
+  const ExactFormFactors exact(scene, mesh, exact_options);
+  RowCost exact_cost;
+  const double truth = exact.pair(0, 1, exact_cost);
+  ASSERT_GT(truth, 0.0);
+  EXPECT_NEAR(row[1] / truth, 1.0, RaycastOptions{}.tolerance) << truth;
 }
 
 // The small RenderPark scenes with the default raycast: no row above 1 + its stated error

@@ -15,16 +15,19 @@
 
 namespace radlab {
 
-// The work cap of an integral over a thin element given more levels than its gap asks for
-// (kernel evaluations; ~20 ms here). 2e5 left F(21, 8) of tests/raycast_reciprocity_test.cpp
-// 3.6e-4 low; 2e6 meets the tolerance there.
-constexpr long long kThinElementEvaluations = 2000000;
-// The work cap of every other adaptive integral (~0.3 s here, and ~90 MB of cells per thread at
-// most). A pair whose gap asks for many levels along a long edge can refine ~2^levels cells along
-// it: once hospital.mgf's window-frame contacts were removed on loading (overlap.h), a build held
-// 24 GB before it was killed (the pair was not identified; docs/formfactors.md). What a capped
-// integral leaves is stated (row_quadrature_excess).
+// The work cap of every adaptive integral, one per pair (kernel evaluations beyond the starting
+// cells; ~2 s here, and ~90 MB of cells per thread at most). A pair whose gap asks for many
+// levels along a long edge can refine ~2^levels cells along it: once hospital.mgf's window-frame
+// contacts were removed on loading (overlap.h), a build held 24 GB before it was killed (the pair
+// was not identified; docs/formfactors.md). What a capped integral leaves is stated
+// (row_quadrature_excess). Thin elements once had a tighter cap of their own (2e6) per starting
+// cell; with one cap per pair that left F(21, 8) of tests/raycast_reciprocity_test.cpp 7.8% low,
+// against 1.4% at this one.
 constexpr long long kAdaptiveEvaluations = 20000000;
+// A pair started from many small cells (below) works to this fraction of the tolerance: there
+// the sum of the cells' error estimates fell below the true error (unit squares 0.1 mm apart:
+// estimate under 1e-4 F, error 1.07e-4 F; at a quarter, 8e-7 F).
+constexpr double kSplitTolerance = 0.25;
 
 RaycastOptions RaycastOptions::from(ParamBag& bag) {
   RaycastOptions o;
@@ -157,13 +160,7 @@ double RaycastFormFactors::unoccluded_over(size_t i, size_t j, RowCost& cost, do
                ? std::clamp(int(std::ceil(std::log2(std::max(diameter / scale, 1.0)))) + 3, 10, 30)
                : 10;
   };
-  const int gap_depth = levels_for(lowest);
-  const int depth = std::max(gap_depth, levels_for(width));
-  // The levels a thin i gets beyond the gap's come with a tighter work cap per integral: where
-  // the integrand is not smooth at the width's scale either (a sliver along a singular edge),
-  // the rule would otherwise refine to 30 levels, and a hospital.mgf build held 10 GB of cells
-  // after ten minutes. Either cap's remaining error is stated, as the depth limit's is.
-  const long long cap = depth > gap_depth ? kThinElementEvaluations : kAdaptiveEvaluations;
+  const int depth = std::max(levels_for(lowest), levels_for(width));
   // A pair much closer than its size (lowest < diameter / 64): the integrand falls off within
   // ~lowest of j's outline, a layer the adaptive rule's 3x3 points on large cells never land in,
   // so it converges falsely (1 mm apart: 1.9e-3 off). Start it from cells of ~16 lowest (at most
@@ -180,40 +177,33 @@ double RaycastFormFactors::unoccluded_over(size_t i, size_t j, RowCost& cost, do
   const int split = lowest > 0.0 ? int(std::min(64.0, std::ceil(diameter / (16.0 * lowest)))) : 4;
   double f = 0.0;
   if (split >= 4) {
-    // Each piece weighted by its area over the pieces' total, so that the shares sum to 1 however
-    // the areas round (with Newell's areas, which lost small pieces far from the origin, shares
-    // that did not sum to 1 gave hospital.mgf rows summing to 143 and non-finite entries).
-    double total = 0.0, weighted = 0.0, weighted_error = 0.0;
-    thread_local std::vector<Vec3> piece(3);
+    // The pieces are the starting cells of one adaptive integral: one error budget (tolerance *
+    // F^u_ij over the whole pair) and one work cap, as for a pair started from one cell.
+    thread_local std::vector<Vec3> pieces;
+    pieces.clear();
     for (size_t t = 1; t + 1 < from.size(); ++t) {
       const Vec3 o = from[0], u = (from[t] - o) / double(split),
                  v = (from[t + 1] - o) / double(split);
       for (int p = 0; p < split; ++p)
-        for (int q = 0; p + q < split; ++q)
-          for (int upper = 0; upper < (p + q + 1 < split ? 2 : 1); ++upper) {
-            if (upper == 0)
-              piece = {o + double(p) * u + double(q) * v, o + double(p + 1) * u + double(q) * v,
-                       o + double(p) * u + double(q + 1) * v};
-            else
-              piece = {o + double(p + 1) * u + double(q) * v,
-                       o + double(p + 1) * u + double(q + 1) * v,
-                       o + double(p) * u + double(q + 1) * v};
-            const double weight = geometry::area(piece);
-            if (!(weight > 0.0)) continue;
-            total += weight;
-            double piece_error = 0.0;
-            weighted += weight * polygon_integral_adaptive({piece, mesh_.normal[i]}, b, nullptr,
-                                                           options_.tolerance, 1e-14 / kept, depth,
-                                                           &evaluations, cap, &piece_error);
-            weighted_error += weight * piece_error;
-          }
+        for (int q = 0; p + q < split; ++q) {
+          pieces.insert(pieces.end(),
+                        {o + double(p) * u + double(q) * v, o + double(p + 1) * u + double(q) * v,
+                         o + double(p) * u + double(q + 1) * v});
+          if (p + q + 1 < split)
+            pieces.insert(pieces.end(), {o + double(p + 1) * u + double(q) * v,
+                                         o + double(p + 1) * u + double(q + 1) * v,
+                                         o + double(p) * u + double(q + 1) * v});
+        }
     }
-    f = total > 0.0 ? weighted / total : 0.0;
-    *error = total > 0.0 ? kept * weighted_error / total : 0.0;
+    double estimated = 0.0;
+    f = polygon_integral_adaptive_triangles(pieces, mesh_.normal[i], b,
+                                            kSplitTolerance * options_.tolerance, 1e-14 / kept,
+                                            depth, &evaluations, kAdaptiveEvaluations, &estimated);
+    *error = kept * estimated;
   } else {
     double estimated = 0.0;
     f = polygon_integral_adaptive(a, b, nullptr, options_.tolerance, 1e-14 / kept, depth,
-                                  &evaluations, cap, &estimated);
+                                  &evaluations, kAdaptiveEvaluations, &estimated);
     *error = kept * estimated;
   }
   cost.kernel_evaluations += uint64_t(evaluations);
