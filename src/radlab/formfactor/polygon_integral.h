@@ -60,8 +60,8 @@ double polygon_integral_adaptive(const PolygonRef& from, const PolygonRef& to,
 // their union, as if integrated over that union from those cells. For a pair much closer than
 // its size, whose integrand must be resolved from small cells (raycast.cpp). Integrating each
 // cell on its own gave each its own relative tolerance and its own cap: cells whose share of the
-// pair is tiny were refined to 1e-4 of their own value, and a pair of 8,192 cells could take
-// 8,192 caps (office1/graz.mgf: one pair ran for minutes).
+// pair is tiny were refined to 1e-4 of their own value, and a pair of 12,288 cells could take
+// 12,288 caps (office1/graz.mgf: one pair ran for over 10 minutes).
 double polygon_integral_adaptive_triangles(std::span<const Vec3> triangles, const Vec3& normal,
                                            const PolygonRef& to, double relative_tolerance,
                                            double absolute_floor, int max_depth,

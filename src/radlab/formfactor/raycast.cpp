@@ -175,7 +175,7 @@ double RaycastFormFactors::unoccluded_over(size_t i, size_t j, RowCost& cost, do
   // examp1.mgf but was up to 2.6e-4 off for slivers along a wall, against a tolerance of 1e-4:
   // docs/formfactors.md, "Tried, not kept".)
   const int split = lowest > 0.0 ? int(std::min(64.0, std::ceil(diameter / (16.0 * lowest)))) : 4;
-  double f = 0.0;
+  double f = 0.0, estimated = 0.0;
   if (split >= 4) {
     // The pieces are the starting cells of one adaptive integral: one error budget (tolerance *
     // F^u_ij over the whole pair) and one work cap, as for a pair started from one cell.
@@ -195,17 +195,14 @@ double RaycastFormFactors::unoccluded_over(size_t i, size_t j, RowCost& cost, do
                                          o + double(p) * u + double(q + 1) * v});
         }
     }
-    double estimated = 0.0;
     f = polygon_integral_adaptive_triangles(pieces, mesh_.normal[i], b,
                                             kSplitTolerance * options_.tolerance, 1e-14 / kept,
                                             depth, &evaluations, kAdaptiveEvaluations, &estimated);
-    *error = kept * estimated;
   } else {
-    double estimated = 0.0;
     f = polygon_integral_adaptive(a, b, nullptr, options_.tolerance, 1e-14 / kept, depth,
                                   &evaluations, kAdaptiveEvaluations, &estimated);
-    *error = kept * estimated;
   }
+  *error = kept * estimated;
   cost.kernel_evaluations += uint64_t(evaluations);
   return kept * f;
 }
