@@ -138,6 +138,46 @@ TEST(PolygonIntegral, ClipToFrontLeavesNoRepeatedCorner) {
   }
 }
 
+// The strips a thin element starts from (raycast.cpp): a pentagon cut across an axis into 7
+// strips of equal width. Their triangles cover it (areas summing to its own) and each lies
+// within its strip; one strip gives the fan.
+TEST(PolygonIntegral, StripTrianglesCoverThePolygonStripByStrip) {
+  const std::vector<Vec3> pentagon = {{0, 0, 0}, {4, 0, 0}, {5, 1, 0}, {3, 2, 0}, {0.5, 1.5, 0}};
+  const Vec3 axis = glm::normalize(Vec3(1, 0.2, 0));
+  double low = 1e300, high = -1e300;
+  for (const Vec3& c : pentagon) {
+    low = std::min(low, glm::dot(c, axis));
+    high = std::max(high, glm::dot(c, axis));
+  }
+  const int count = 7;
+  const double step = (high - low) / count;
+  std::vector<Vec3> triangles;
+  append_strip_triangles(pentagon, axis, count, triangles);
+  ASSERT_EQ(triangles.size() % 3, 0u);
+  double area = 0.0;
+  std::vector<int> per_strip(count, 0);
+  for (size_t t = 0; t < triangles.size(); t += 3) {
+    const std::span<const Vec3> triangle(triangles.data() + t, 3);
+    const double a = geometry::area(triangle);
+    area += a;
+    if (!(a > 1e-12)) continue;
+    const Vec3 centre = (triangle[0] + triangle[1] + triangle[2]) / 3.0;
+    const int strip = int(std::floor((glm::dot(centre, axis) - low) / step));
+    ASSERT_GE(strip, 0);
+    ASSERT_LT(strip, count);
+    ++per_strip[size_t(strip)];
+    for (const Vec3& c : triangle) {
+      EXPECT_GE(glm::dot(c, axis), low + strip * step - 1e-12);
+      EXPECT_LE(glm::dot(c, axis), low + (strip + 1) * step + 1e-12);
+    }
+  }
+  EXPECT_NEAR(area, geometry::area(pentagon), 1e-12);
+  for (int s = 0; s < count; ++s) EXPECT_GT(per_strip[size_t(s)], 0) << "strip " << s;
+  triangles.clear();
+  append_strip_triangles(pentagon, axis, 1, triangles);
+  EXPECT_EQ(triangles.size(), 9u);  // the fan of the pentagon, unchanged
+}
+
 TEST(PolygonIntegral, ClippedPentagonMeetsTheTolerance) {
   // A panel standing on the floor square, its plane cutting one corner off: the part of the
   // floor in front of it is a pentagon, whose integrand is log-singular along the panel's foot.

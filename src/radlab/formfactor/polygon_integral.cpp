@@ -292,7 +292,7 @@ double polygon_integral_adaptive_triangles(std::span<const Vec3> triangles, cons
                                            const PolygonRef& to, double relative_tolerance,
                                            double absolute_floor, int max_depth,
                                            long long* evaluations, long long max_evaluations,
-                                           double* estimated_error) {
+                                           double* estimated_error, bool split_every_root) {
   if (estimated_error) *estimated_error = 0.0;
   thread_local std::vector<Quad> roots;
   roots.clear();
@@ -305,7 +305,44 @@ double polygon_integral_adaptive_triangles(std::span<const Vec3> triangles, cons
   }
   if (!(area > 0.0)) return 0.0;
   return integrate_roots(roots, area, normal, to, nullptr, relative_tolerance, absolute_floor,
-                         max_depth, evaluations, max_evaluations, estimated_error, true);
+                         max_depth, evaluations, max_evaluations, estimated_error,
+                         split_every_root);
+}
+
+void append_strip_triangles(std::span<const Vec3> corners, const Vec3& axis, int count,
+                            std::vector<Vec3>& triangles) {
+  if (corners.size() < 3 || count < 1) return;
+  double low = 1e300, high = -1e300;
+  for (const Vec3& c : corners) {
+    low = std::min(low, glm::dot(c, axis));
+    high = std::max(high, glm::dot(c, axis));
+  }
+  const double step = (high - low) / double(count);
+  // Each strip is the polygon clipped to low + s step <= t <= low + (s + 1) step, by the two
+  // half-planes in turn (Sutherland-Hodgman; convex in, convex out). The first strip's low cut
+  // and the last's high cut are the polygon's own extent: skipped, so no corner is moved.
+  thread_local std::vector<Vec3> strip, next;
+  const auto clip = [](std::vector<Vec3>& in, std::vector<Vec3>& out, const Vec3& direction,
+                       double cut, double sign) {
+    out.clear();
+    for (size_t k = 0; k < in.size(); ++k) {
+      const Vec3& a = in[k];
+      const Vec3& b = in[(k + 1) % in.size()];
+      const double ha = sign * (glm::dot(a, direction) - cut),
+                   hb = sign * (glm::dot(b, direction) - cut);
+      if (ha >= 0.0) out.push_back(a);
+      if ((ha > 0.0 && hb < 0.0) || (ha < 0.0 && hb > 0.0))
+        out.push_back(a + (ha / (ha - hb)) * (b - a));
+    }
+    std::swap(in, out);
+  };
+  for (int s = 0; s < count; ++s) {
+    strip.assign(corners.begin(), corners.end());
+    if (s > 0) clip(strip, next, axis, low + double(s) * step, 1.0);
+    if (s + 1 < count) clip(strip, next, axis, low + double(s + 1) * step, -1.0);
+    for (size_t k = 1; k + 1 < strip.size(); ++k)
+      triangles.insert(triangles.end(), {strip[0], strip[k], strip[k + 1]});
+  }
 }
 
 double clip_to_front(std::vector<Vec3>& corners, const Vec3& point, const Vec3& normal,

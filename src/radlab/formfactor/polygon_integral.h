@@ -61,13 +61,24 @@ double polygon_integral_adaptive(const PolygonRef& from, const PolygonRef& to,
 // its size, whose integrand must be resolved from small cells (raycast.cpp). Integrating each
 // cell on its own gave each its own relative tolerance and its own cap: cells whose share of the
 // pair is tiny were refined to 1e-4 of their own value, and a pair of 12,288 cells could take
-// 12,288 caps (office1/graz.mgf: one pair ran for over 10 minutes).
+// 12,288 caps (office1/graz.mgf: one pair ran for over 10 minutes). With `split_every_root`
+// each triangle is split once before the global rule starts (otherwise only the first cell
+// taken is), and the cap counts from there.
 double polygon_integral_adaptive_triangles(std::span<const Vec3> triangles, const Vec3& normal,
                                            const PolygonRef& to, double relative_tolerance,
                                            double absolute_floor, int max_depth,
                                            long long* evaluations = nullptr,
                                            long long max_evaluations = 0,
-                                           double* estimated_error = nullptr);
+                                           double* estimated_error = nullptr,
+                                           bool split_every_root = true);
+
+// Cuts the convex polygon `corners` into `count` strips of equal width across `axis` (unit, in
+// its plane) and appends each strip's fan triangles, 3 corners each, to `triangles`: starting
+// cells about as long as they are wide for a thin element (raycast.cpp), whose own cells the
+// adaptive rule, halving both sides, would keep as thin as it is. Strips that clip to nothing
+// (a corner on a cut) add nothing; the triangles cover the polygon.
+void append_strip_triangles(std::span<const Vec3> corners, const Vec3& axis, int count,
+                            std::vector<Vec3>& triangles);
 
 // The integrand F_{dx -> P_j} is zero for x behind P_j's plane and jumps there when P_i straddles
 // that plane (elements not split where another polygon stands on them, e.g. a box on a floor):

@@ -28,6 +28,12 @@ constexpr long long kAdaptiveEvaluations = 20000000;
 // the sum of the cells' error estimates fell below the true error (unit squares 0.1 mm apart:
 // estimate under 1e-4 F, error 1.07e-4 F; at a quarter, 8e-7 F).
 constexpr double kSplitTolerance = 0.25;
+// A thin i (longer than kThinStart times the larger of its width and j's shortest edge) starts
+// from at most kMaxStrips strips across its length, and a close pair from at most kMaxPieces
+// triangles in all (unoccluded_over).
+constexpr double kThinStart = 16.0;
+constexpr int kMaxStrips = 1024;
+constexpr int kMaxPieces = 32768;
 
 RaycastOptions RaycastOptions::from(ParamBag& bag) {
   RaycastOptions o;
@@ -175,29 +181,61 @@ double RaycastFormFactors::unoccluded_over(size_t i, size_t j, RowCost& cost, do
   // examp1.mgf but was up to 2.6e-4 off for slivers along a wall, against a tolerance of 1e-4:
   // docs/formfactors.md, "Tried, not kept".)
   const int split = lowest > 0.0 ? int(std::min(64.0, std::ceil(diameter / (16.0 * lowest)))) : 4;
+  // A thin i beside a j with short edges: the adaptive rule does not trust a cell within its own
+  // size of j until the cell is no longer than j's shortest edge (polygon_integral.cpp), and it
+  // halves both sides of a cell, so cells of a thin i stay as thin as i. A 5 mm x 1.95 m face of
+  // a window putty prism (office1/graz.mgf) against its neighbouring face needed nine levels,
+  // 2.6e5 cells, before its shared edge was refined at all, and stopped at the work cap with a
+  // stated excess of 0.27. Such an i starts from strips across its length about as long as the
+  // larger of its width and j's shortest edge (at most kMaxStrips).
+  double to_shortest = 1e300;
+  for (size_t k = 0; k < to.size(); ++k)
+    to_shortest = std::min(to_shortest, glm::distance(to[k], to[(k + 1) % to.size()]));
+  const double strip_length = std::max(width, to_shortest);
+  const bool thin = longest > kThinStart * strip_length;
   double f = 0.0, estimated = 0.0;
-  if (split >= 4) {
+  if (split >= 4 || thin) {
     // The pieces are the starting cells of one adaptive integral: one error budget (tolerance *
     // F^u_ij over the whole pair) and one work cap, as for a pair started from one cell.
-    thread_local std::vector<Vec3> pieces;
+    thread_local std::vector<Vec3> base, pieces;
+    base.clear();
     pieces.clear();
-    for (size_t t = 1; t + 1 < from.size(); ++t) {
-      const Vec3 o = from[0], u = (from[t] - o) / double(split),
-                 v = (from[t + 1] - o) / double(split);
-      for (int p = 0; p < split; ++p)
-        for (int q = 0; p + q < split; ++q) {
+    int parts = split;  // each base triangle cut into parts x parts
+    if (thin) {
+      size_t e = 0;  // i's longest edge: the strips cut across it
+      for (size_t k = 0; k < from.size(); ++k)
+        if (glm::distance(from[k], from[(k + 1) % from.size()]) == longest) e = k;
+      const Vec3 axis = glm::normalize(from[(e + 1) % from.size()] - from[e]);
+      append_strip_triangles(
+          from, axis, int(std::min(double(kMaxStrips), std::ceil(longest / strip_length))), base);
+      // A close pair's strips are cut further towards cells of ~16 lowest, within kMaxPieces.
+      const double wanted = lowest > 0.0 ? std::ceil(strip_length / (16.0 * lowest)) : 1.0;
+      const double room = std::floor(std::sqrt(double(kMaxPieces) / double(base.size() / 3)));
+      parts = int(std::clamp(std::min(wanted, room), 1.0, 64.0));
+    } else {
+      for (size_t t = 1; t + 1 < from.size(); ++t)
+        base.insert(base.end(), {from[0], from[t], from[t + 1]});
+    }
+    for (size_t t = 0; t + 2 < base.size(); t += 3) {
+      const Vec3 o = base[t], u = (base[t + 1] - o) / double(parts),
+                 v = (base[t + 2] - o) / double(parts);
+      for (int p = 0; p < parts; ++p)
+        for (int q = 0; p + q < parts; ++q) {
           pieces.insert(pieces.end(),
                         {o + double(p) * u + double(q) * v, o + double(p + 1) * u + double(q) * v,
                          o + double(p) * u + double(q + 1) * v});
-          if (p + q + 1 < split)
+          if (p + q + 1 < parts)
             pieces.insert(pieces.end(), {o + double(p + 1) * u + double(q) * v,
                                          o + double(p + 1) * u + double(q + 1) * v,
                                          o + double(p) * u + double(q + 1) * v});
         }
     }
+    // Pieces of a close or touching pair are each split once first (their coarse rules can
+    // agree by chance); a thin i's strips farther away need not be.
     f = polygon_integral_adaptive_triangles(pieces, mesh_.normal[i], b,
                                             kSplitTolerance * options_.tolerance, 1e-14 / kept,
-                                            depth, &evaluations, kAdaptiveEvaluations, &estimated);
+                                            depth, &evaluations, kAdaptiveEvaluations, &estimated,
+                                            /*split_every_root=*/split >= 4);
   } else {
     f = polygon_integral_adaptive(a, b, nullptr, options_.tolerance, 1e-14 / kept, depth,
                                   &evaluations, kAdaptiveEvaluations, &estimated);
