@@ -23,4 +23,12 @@ std::vector<double> element_radii(const Mesh& mesh);
 double grazing_scale(const Mesh& mesh, size_t i, size_t j, std::span<const Vec3> from, double kept,
                      double diameter);
 
+// The distance between two convex planar polygons (unit normals na, nb) that do not cross each
+// other: the least of each one's corners to the other polygon and of their edges to each other
+// (the closest points of disjoint convex polygons lie at a corner or on two edges). Where the
+// polygons cross, it is the distance their outlines keep, not 0: callers pass polygons on one
+// side of each other's plane.
+double polygon_distance(std::span<const Vec3> a, const Vec3& na, std::span<const Vec3> b,
+                        const Vec3& nb);
+
 }  // namespace radlab
