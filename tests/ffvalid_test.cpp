@@ -300,6 +300,38 @@ TEST(RaycastNearPairs, ThinFacesAlongALongSharedEdgeConverge) {
   EXPECT_LT(cost.kernel_evaluations, 20000000u);
 }
 
+// A close pair is split on its distance, not its height above j's plane (raycast.cpp): two of
+// examp1.mgf's lower reflector strips (examp1.mgf:249 and :251, elements 135 and 137), 1.2 m x
+// 1.2 cm, 0.013 rad apart and 1.2 cm from each other (the strip between them left out here).
+// i's nearest corner is 7.5e-5 m above j's plane, so the pair was started from 64 x 64 cells
+// per fan triangle: 5.6e6 evaluations for an entry of 1e-5, six such pairs half of examp1's
+// quadrature. The integrand varies on the 1.2 cm: 3.4e4 evaluations, within the tolerance.
+TEST(RaycastNearPairs, NearCoplanarStripsApartAreSplitOnTheirDistance) {
+  const std::vector<Vec3> upper = {{0.6096, -0.070442328, -0.008890508},
+                                   {0.6096, -0.072972676, -0.020743672},
+                                   {-0.6096, -0.072972676, -0.020743672},
+                                   {-0.6096, -0.070442328, -0.008890508}};
+  const std::vector<Vec3> lower = {{0.6096, -0.075418188, -0.032596836},
+                                   {0.6096, -0.0777875, -0.04445},
+                                   {-0.6096, -0.0777875, -0.04445},
+                                   {-0.6096, -0.075418188, -0.032596836}};
+  Scene scene = scene_of({upper, lower});
+  validate_scene(scene, /*keep_overlaps=*/true);
+  const Mesh mesh = build_mesh(scene, {});
+  const RaycastFormFactors raycast(scene, mesh, {});
+  std::vector<double> row(2, 0.0);
+  RowCost cost;
+  raycast.row(0, row, cost);
+  ExactOptions exact_options;
+  exact_options.tolerance = 1e-8;  // 0.06 s here; at 1e-9 minutes
+  const ExactFormFactors exact(scene, mesh, exact_options);
+  RowCost exact_cost;
+  const double truth = exact.pair(0, 1, exact_cost);
+  ASSERT_GT(truth, 1e-6);
+  EXPECT_NEAR(row[1] / truth, 1.0, RaycastOptions{}.tolerance) << truth;
+  EXPECT_LT(cost.kernel_evaluations, 200000u);
+}
+
 // The small RenderPark scenes with the default raycast: no row above 1 + its stated error
 // (tolerance + float storage + 5 standard errors of the row's visibility sampling). Before the
 // close pairs' solid-angle sampling (docs/formfactors.md) the largest rows were 1.0099 (cube),
