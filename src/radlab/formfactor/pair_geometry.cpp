@@ -31,24 +31,6 @@ double grazing_scale(const Mesh& mesh, size_t i, size_t j, std::span<const Vec3>
 
 namespace {
 
-// Distance from x to the convex planar polygon p (unit normal n).
-double point_polygon_distance(const Vec3& x, std::span<const Vec3> p, const Vec3& n) {
-  const double height = glm::dot(x - p[0], n);
-  const Vec3 y = x - height * n;  // x projected onto the plane
-  bool inside = true;
-  double edge = 1e300;
-  for (size_t k = 0; k < p.size(); ++k) {
-    const Vec3& a = p[k];
-    const Vec3& b = p[(k + 1) % p.size()];
-    const Vec3 e = b - a;
-    if (glm::dot(glm::cross(e, y - a), n) < 0.0) inside = false;
-    const double len2 = glm::dot(e, e);
-    const double t = len2 > 0.0 ? std::clamp(glm::dot(x - a, e) / len2, 0.0, 1.0) : 0.0;
-    edge = std::min(edge, glm::distance(x, a + t * e));
-  }
-  return inside ? std::abs(height) : edge;
-}
-
 // Distance between the segments p0 p1 and q0 q1 (Ericson, Real-Time Collision Detection 5.1.9):
 // the closest parameters of the two lines, clamped to the segments one after the other.
 double segment_distance(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1) {
@@ -79,6 +61,23 @@ double segment_distance(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Ve
 }
 
 }  // namespace
+
+double point_polygon_distance(const Vec3& x, std::span<const Vec3> p, const Vec3& n) {
+  const double height = glm::dot(x - p[0], n);
+  const Vec3 y = x - height * n;  // x projected onto the plane
+  bool inside = true;
+  double edge = 1e300;
+  for (size_t k = 0; k < p.size(); ++k) {
+    const Vec3& a = p[k];
+    const Vec3& b = p[(k + 1) % p.size()];
+    const Vec3 e = b - a;
+    if (glm::dot(glm::cross(e, y - a), n) < 0.0) inside = false;
+    const double len2 = glm::dot(e, e);
+    const double t = len2 > 0.0 ? std::clamp(glm::dot(x - a, e) / len2, 0.0, 1.0) : 0.0;
+    edge = std::min(edge, glm::distance(x, a + t * e));
+  }
+  return inside ? std::abs(height) : edge;
+}
 
 double polygon_distance(std::span<const Vec3> a, const Vec3& na, std::span<const Vec3> b,
                         const Vec3& nb) {

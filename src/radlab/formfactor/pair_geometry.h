@@ -23,6 +23,9 @@ std::vector<double> element_radii(const Mesh& mesh);
 double grazing_scale(const Mesh& mesh, size_t i, size_t j, std::span<const Vec3> from, double kept,
                      double diameter);
 
+// The distance from x to the convex planar polygon p (unit normal n).
+double point_polygon_distance(const Vec3& x, std::span<const Vec3> p, const Vec3& n);
+
 // The distance between two convex planar polygons (unit normals na, nb) that do not cross each
 // other: the least of each one's corners to the other polygon and of their edges to each other
 // (the closest points of disjoint convex polygons lie at a corner or on two edges). Where the

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <glm/geometric.hpp>
 
+#include "radlab/formfactor/pair_geometry.h"
 #include "radlab/formfactor/point_polygon.h"
 #include "radlab/formfactor/quadrature.h"
 
@@ -64,24 +65,6 @@ double cell_area(std::span<const Vec3> c) {
   Vec3 twice(0.0);
   for (size_t k = 1; k + 1 < c.size(); ++k) twice += glm::cross(c[k] - c[0], c[k + 1] - c[0]);
   return 0.5 * glm::length(twice);
-}
-
-// Distance from x to a convex planar polygon (unit normal n).
-double distance_to_polygon(const Vec3& x, std::span<const Vec3> p, const Vec3& n) {
-  const double height = glm::dot(x - p[0], n);
-  const Vec3 y = x - height * n;  // x projected onto the plane
-  bool inside = true;
-  double edge_distance = 1e300;
-  for (size_t k = 0; k < p.size(); ++k) {
-    const Vec3& a = p[k];
-    const Vec3& b = p[(k + 1) % p.size()];
-    const Vec3 e = b - a;
-    if (glm::dot(glm::cross(e, y - a), n) < 0.0) inside = false;
-    const double len2 = glm::dot(e, e);
-    const double t = len2 > 0.0 ? std::clamp(glm::dot(x - a, e) / len2, 0.0, 1.0) : 0.0;
-    edge_distance = std::min(edge_distance, glm::distance(x, a + t * e));
-  }
-  return inside ? std::abs(height) : edge_distance;
 }
 
 // Adaptive integration over cells: quads, or triangles (p0, p1, p2) as collapsed quads
@@ -155,7 +138,7 @@ Cell prepare(const Quad& corners, double own, int depth, double parent_error, co
   double radius = 0.0;
   for (const Vec3& v : corners) radius = std::max(radius, glm::distance(v, centre));
   if (2.0 * radius > f.to_shortest_edge &&
-      distance_to_polygon(centre, f.to.corners, f.to.normal) < 2.0 * radius)
+      point_polygon_distance(centre, f.to.corners, f.to.normal) < 2.0 * radius)
     cell.error = std::max(cell.error, cell_area(corners));
   return cell;
 }

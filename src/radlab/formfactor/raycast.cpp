@@ -158,8 +158,11 @@ double RaycastFormFactors::unoccluded_over(size_t i, size_t j, RowCost& cost, do
   // stopped at 10 levels, cells of 1.2e-4 for a width of 5e-5, and converged to 5.9e-4 below
   // the value (the same at tolerance 1e-7; tests/raycast_reciprocity_test.cpp).
   double longest = 0.0;
-  for (size_t k = 0; k < from.size(); ++k)
-    longest = std::max(longest, glm::distance(from[k], from[(k + 1) % from.size()]));
+  size_t longest_edge = 0;  // from corner longest_edge to the next
+  for (size_t k = 0; k < from.size(); ++k) {
+    const double length = glm::distance(from[k], from[(k + 1) % from.size()]);
+    if (length >= longest) longest = length, longest_edge = k;  // the last of equals, as before
+  }
   const double width = longest > 0.0 ? 2.0 * geometry::area(from) / longest : diameter;
   const auto levels_for = [&](double scale) {
     return scale > 0.0
@@ -209,10 +212,8 @@ double RaycastFormFactors::unoccluded_over(size_t i, size_t j, RowCost& cost, do
     pieces.clear();
     int parts = split;  // each base triangle cut into parts x parts
     if (thin) {
-      size_t e = 0;  // i's longest edge: the strips cut across it
-      for (size_t k = 0; k < from.size(); ++k)
-        if (glm::distance(from[k], from[(k + 1) % from.size()]) == longest) e = k;
-      const Vec3 axis = glm::normalize(from[(e + 1) % from.size()] - from[e]);
+      // the strips cut across i's longest edge
+      const Vec3 axis = glm::normalize(from[(longest_edge + 1) % from.size()] - from[longest_edge]);
       append_strip_triangles(
           from, axis, int(std::min(double(kMaxStrips), std::ceil(longest / strip_length))), base);
       // A close pair's strips are cut further towards cells of ~16 gaps, within kMaxPieces.
