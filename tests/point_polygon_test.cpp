@@ -191,6 +191,74 @@ TEST(PointToPolygonBatch, MatchesTheScalarFormula) {
               total, behind, clipped, grazing, worst);
 }
 
+// Quadrature points of one element share its plane. A polygon crossing that plane (a floor
+// running on behind a small face standing on it) is clipped to it once for the whole batch,
+// not per point; each point's value must still be the scalar formula's on the part above its
+// tangent plane. The configuration is rotated off the axes so that the corners the clip makes
+// lie on the plane only up to rounding (they then count as on it: below_tangent_plane's
+// slack). Reference: the scalar formula on the rectangle already cut at the plane by hand (its
+// corners on the plane exactly, so nothing is clipped), and on the whole rectangle (clipped per
+// point). Both within 1e-13 relative: the batch differs from the scalar path by a few ulp per
+// edge term (point_polygon_batch.cpp), and the terms here cancel little (F ~ 0.01-0.3).
+TEST(PointToPolygonBatch, CoplanarPointsClipTheCrossingPolygonOnce) {
+  const glm::dmat4 turn =
+      glm::rotate(glm::rotate(glm::dmat4(1.0), 0.7, Vec3(1, 2, 3)), 0.3, Vec3(-2, 1, 0.5));
+  const auto rotated = [&](const Vec3& v) { return Vec3(turn * glm::dvec4(v, 1.0)); };
+  const auto turned = [&](const Vec3& v) { return Vec3(turn * glm::dvec4(v, 0.0)); };
+  // Points on the floor z = 0 facing up; a wall at y = 1 facing them, reaching below the floor.
+  const Vec3 n = turned(Vec3(0, 0, 1)), wall_normal = turned(Vec3(0, -1, 0));
+  std::vector<Vec3> wall, above;
+  for (const Vec3& v : {Vec3(-1, 1, -1), Vec3(1, 1, -1), Vec3(1, 1, 2), Vec3(-1, 1, 2)})
+    wall.push_back(rotated(v));
+  for (const Vec3& v : {Vec3(-1, 1, 0), Vec3(1, 1, 0), Vec3(1, 1, 2), Vec3(-1, 1, 2)})
+    above.push_back(rotated(v));
+  std::vector<double> x, y, z;
+  for (int a = 0; a < 9; ++a)
+    for (int b = 0; b < 7; ++b) {
+      const Vec3 p = rotated(Vec3(-0.8 + 0.2 * a, -0.5 + 0.2 * b, 0.0));
+      x.push_back(p.x), y.push_back(p.y), z.push_back(p.z);
+    }
+  std::vector<Vec3> scratch;
+  for (BatchKernel kernel : {BatchKernel::kBest, BatchKernel::kBaseline}) {
+    std::vector<double> out(x.size(), -1.0);
+    point_to_polygon_form_factors({x.data(), y.data(), z.data(), x.size()}, n, wall, wall_normal,
+                                  out.data(), scratch, kernel);
+    for (size_t k = 0; k < x.size(); ++k) {
+      const Vec3 p(x[k], y[k], z[k]);
+      const double cut = point_to_polygon_form_factor(p, n, above, wall_normal, scratch);
+      const double whole = point_to_polygon_form_factor(p, n, wall, wall_normal, scratch);
+      ASSERT_GT(cut, 0.005);
+      EXPECT_LE(relative_error(out[k], cut), 1e-13) << "point " << k;
+      EXPECT_LE(relative_error(whole, cut), 1e-13) << "point " << k;
+    }
+  }
+}
+
+// Lambert's formula is the signed integral of cos over the solid angle, so a corner a hair
+// below x's tangent plane (elevation -5e-10 rad, within below_tangent_plane's slack: no clip)
+// changes F by less than (5e-10)^2 against the polygon clipped to the plane: only rounding
+// shows (1e-15 absolute, F ~ 0.1). A corner well below (-1e-3 rad, beyond the slack) is clipped,
+// and F is again the clipped polygon's; had it been left unclipped, the part below would have
+// counted about -(1e-3)^2 / pi ~ -3e-7, which the same bound would catch.
+TEST(PointToPolygon, CornerAHairBelowTheTangentPlaneChangesNothing) {
+  const Vec3 x(0.0), n(0, 0, 1);
+  std::vector<Vec3> scratch, clipped;
+  for (const double elevation : {5e-10, 1e-3}) {
+    // A quad standing in front of x, its first corner (distance sqrt 2) just below x's plane.
+    const std::vector<Vec3> quad = {
+        {-1, 1, -elevation * std::sqrt(2.0)}, {1, 1, 0}, {1, 1.1, 1}, {-1, 1.1, 1}};
+    const Vec3 normal = glm::normalize(glm::cross(quad[1] - quad[0], quad[3] - quad[0]));
+    ASSERT_GT(glm::dot(x - quad[0], normal), 0.0);  // x sees its front
+    geometry::clip_to_halfspace(quad, x, n, clipped);
+    const double f = point_to_polygon_form_factor(x, n, quad, normal, scratch);
+    const double reference = point_to_polygon_form_factor(x, n, clipped, normal, scratch);
+    EXPECT_GT(reference, 0.05);
+    EXPECT_NEAR(f, reference, 1e-15) << "elevation " << elevation;
+    EXPECT_EQ(below_tangent_plane(quad[0] - x, n), elevation > kTangentSlack)
+        << "elevation " << elevation;
+  }
+}
+
 // The structure-of-arrays rule is the same rule, bit for bit (quads by their per-node path).
 TEST(Quadrature, StructureOfArraysIsTheSameRule) {
   const std::vector<std::vector<Vec3>> cells = {

@@ -4,6 +4,7 @@
 #include <glm/geometric.hpp>
 #include <numbers>
 
+#include "radlab/formfactor/fast_atan.h"
 #include "radlab/scene/geometry.h"
 
 namespace radlab {
@@ -14,7 +15,7 @@ double point_to_polygon_form_factor(const Vec3& x, const Vec3& n, std::span<cons
   if (glm::dot(x - polygon[0], polygon_normal) <= 0.0) return 0.0;
   bool all_above = true;
   for (const Vec3& v : polygon)
-    if (glm::dot(v - x, n) < 0.0) {
+    if (below_tangent_plane(v - x, n)) {
       all_above = false;
       break;
     }
@@ -24,6 +25,8 @@ double point_to_polygon_form_factor(const Vec3& x, const Vec3& n, std::span<cons
     if (scratch.size() < 3) return 0.0;
     p = scratch;
   }
+  // The angles by the inline atan2 (fast_atan.h, within ~2.5 ulp of libm's, which was an opaque
+  // call and ~15% of a raycast build on hospital.mgf).
   double sum = 0.0;
   const size_t count = p.size();
   for (size_t k = 0; k < count; ++k) {
@@ -32,8 +35,7 @@ double point_to_polygon_form_factor(const Vec3& x, const Vec3& n, std::span<cons
     const Vec3 c = glm::cross(a, b);
     const double len = glm::length(c);
     if (len <= 0.0) continue;  // x on the edge's line: the edge subtends no solid angle
-    const double gamma = std::atan2(len, glm::dot(a, b));
-    sum += gamma * glm::dot(n, c) / len;
+    sum += atan2_upper(len, glm::dot(a, b)) * glm::dot(n, c) / len;
   }
   // The sign depends on the winding as seen from x; the magnitude is the form factor.
   return std::abs(sum) / (2.0 * std::numbers::pi);

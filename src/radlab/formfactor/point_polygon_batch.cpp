@@ -21,11 +21,13 @@
 #include <cmath>
 #include <cstdint>
 #include <glm/geometric.hpp>
+#include <limits>
 #include <numbers>
 #include <utility>
 
 #include "radlab/formfactor/fast_atan.h"
 #include "radlab/formfactor/point_polygon.h"
+#include "radlab/scene/geometry.h"
 
 #if defined(__x86_64__) && defined(__GNUC__)
 #include <immintrin.h>
@@ -39,19 +41,21 @@ constexpr size_t kLanes = 4;       // one AVX2 register of doubles, two SSE2 one
 constexpr size_t kBlock = 64;      // points per kernel call; a multiple of kLanes
 constexpr size_t kMaxCorners = 8;  // polygons with more corners take the scalar path
 
-// The batched sum may differ from the scalar one by a few ulp per edge term: atan2_upper against
-// libm's atan2 (up to ~2.5 ulp), and the roundings after it; every other operation is the same,
-// in the same order, unfused. That is up to about 5e-16 * sum_k |term_k| (typically a few times
-// less: the differences have random signs), a large relative change where the terms cancel: for
-// a polygon seen nearly edge-on (x close to its plane, a result ~1e-10 from terms ~0.1) it would
-// be ~1e-7, for a far, small polygon (terms ~ its angular size, the result ~ its square) ~1e-13.
-// Where sum_k |term_k| exceeds this multiple of |sum|, the point's sum is recomputed with libm's
-// atan2 from the same geometry (the same values, bit for bit), which is exactly the scalar
-// result; elsewhere the relative difference stays below ~1e-13 (tests: at most 7.5e-14). On the
-// Cornell box about 7% of the points are recomputed. (Both paths share the cancellation itself:
-// the geometry's rounding errors, which it amplifies, are the same in both. On a target whose
-// scalar code fuses multiply-adds, e.g. AArch64, the recomputed results differ from the scalar
-// ones by those fusions, as the others do.)
+// The batched sum may differ from the scalar one by a few ulp per edge term: the AVX2 build fuses
+// atan2_upper's polynomial (the scalar path's is unfused), and the roundings after it differ;
+// every other operation is the same, in the same order, unfused. That is up to about 5e-16 *
+// sum_k |term_k| (typically a few times less: the differences have random signs), a large
+// relative change where the terms cancel: for a polygon seen nearly edge-on (x close to its
+// plane, a result ~1e-10 from terms ~0.1) it would be ~1e-7, for a far, small polygon (terms ~
+// its angular size, the result ~ its square) ~1e-13. Where sum_k |term_k| exceeds this multiple
+// of |sum|, the point's sum is recomputed with the unfused atan2_upper from the same geometry
+// (the same values, bit for bit), which is exactly the scalar result; elsewhere the relative
+// difference stays below ~1e-13 (tests: at most 7.5e-14). (Both paths share the cancellation
+// itself: the geometry's rounding errors, which it amplifies, are the same in both. On a target
+// whose scalar code fuses multiply-adds, e.g. AArch64, the recomputed results differ from the
+// scalar ones by those fusions, as the others do.) On hospital.mgf 47% of the points are
+// recomputed (thin strips and polygons seen edge-on); with libm's atan2, as the scalar path once
+// had, that was 8% of its raycast build.
 constexpr double kMaxCancellation = 300.0;
 
 // At most kBlock points against one polygon of kCorners corners.
@@ -121,8 +125,11 @@ inline void lambert_block(const Block& block, Sqrt sqrt_block) {
       ax[k] = c[k].x - px[l];
       ay[k] = c[k].y - py[l];
       az[k] = c[k].z - pz[l];
-      // Corner k below x's tangent plane: the polygon must be clipped (the scalar path).
-      count += (ax[k] * n.x + ay[k] * n.y + az[k] * n.z < 0.0) ? 1.0 : 0.0;
+      // Corner k below x's tangent plane: the polygon must be clipped (the scalar path; the
+      // same test as below_tangent_plane, written out so that it vectorises).
+      const double height = ax[k] * n.x + ay[k] * n.y + az[k] * n.z;
+      const double distance2 = ax[k] * ax[k] + ay[k] * ay[k] + az[k] * az[k];
+      count += (height < 0.0 && height * height > kTangentSlack2 * distance2) ? 1.0 : 0.0;
     }
     below[l] = count;
 #pragma GCC unroll 8
@@ -162,12 +169,12 @@ inline void lambert_block(const Block& block, Sqrt sqrt_block) {
   for (size_t l = 0; l < size; ++l) {
     if (flag[l] == 2.0) {
       // The scalar path's sum from the same geometry (the same values, bit for bit: the same
-      // expressions, none fused), with libm's atan2: exactly the scalar result.
+      // expressions, none fused, the unfused atan2_upper): exactly the scalar result.
       double sum = 0.0;
       for (size_t k = 0; k < K; ++k) {
         const double len = length[k][l];
         if (len <= 0.0) continue;
-        sum += std::atan2(len, dot[k][l]) * normal_part[k][l] / len;
+        sum += atan2_upper<false>(len, dot[k][l]) * normal_part[k][l] / len;
       }
       result[l] = std::abs(sum) / (2.0 * std::numbers::pi);
     }
@@ -236,12 +243,39 @@ void point_to_polygon_form_factors(const PointBatch& points, const Vec3& n,
                                    std::span<const Vec3> polygon, const Vec3& polygon_normal,
                                    double* out, std::vector<Vec3>& scratch, BatchKernel kernel) {
   const size_t count = points.count;
-  const size_t corners = polygon.size();
+  size_t corners = polygon.size();
   if (corners < 3 || corners > kMaxCorners) {
     for (size_t k = 0; k < count; ++k)
       out[k] = point_to_polygon_form_factor(Vec3(points.x[k], points.y[k], points.z[k]), n, polygon,
                                             polygon_normal, scratch);
     return;
+  }
+  // Every point's tangent plane has the normal n, so the part of the polygon below the lowest
+  // of them is below every point's and is clipped off once here, not per point: the quadrature
+  // points of one element share its plane, and against a polygon crossing that plane (a floor
+  // that runs on behind a small face standing on it) every point took the scalar path, a clip
+  // and a scalar sum (hospital.mgf: three quarters of its points). Each point then clips what
+  // remains below its own plane, if anything (below_tangent_plane), as before.
+  size_t lowest = 0;
+  double lowest_height = std::numeric_limits<double>::infinity();
+  for (size_t k = 0; k < count; ++k) {
+    const double height = n.x * points.x[k] + n.y * points.y[k] + n.z * points.z[k];
+    if (height < lowest_height) lowest_height = height, lowest = k;
+  }
+  const Vec3 origin(points.x[lowest], points.y[lowest], points.z[lowest]);
+  bool cut = false;
+  for (const Vec3& c : polygon) cut = cut || glm::dot(c - origin, n) < 0.0;
+  if (cut && count > 1) {
+    thread_local std::vector<Vec3> above;
+    geometry::clip_to_halfspace(polygon, origin, n, above);
+    if (above.size() < 3) {  // nothing of the polygon above any point's tangent plane
+      std::fill(out, out + count, 0.0);
+      return;
+    }
+    if (above.size() <= kMaxCorners) {
+      polygon = above;
+      corners = above.size();
+    }
   }
   const Kernel run = resolve(kernel)[corners];
   uint8_t scalar[kBlock];

@@ -83,7 +83,8 @@ class SolidAngleSampler {
   std::span<const Vec3> corners_;
   double total_ = 0.0;
   Vec3 normal_;
-  double cumulative_[kMaxCorners] = {};  // solid angle up to and including each fan triangle
+  double cumulative_[kMaxCorners];  // solid angle up to and including each fan triangle
+  Vec3 unit_[kMaxCorners];          // (corner - x) / |corner - x|, set when total_ > 0
 };
 
 // The solid angle of the triangle of unit vectors (a, b, c): Van Oosterom & Strackee (1983),
