@@ -17,6 +17,9 @@
 // - one hemicube row at R = 150 (target <= 2 ms on one core; Cohen 1988: 10 s on an HP 825);
 // - one raycast row at the default settings.
 //
+// The close-pair direction sampler against the raw packet rate
+// (BM_SolidAngleSamplerVsRawPacketRatio).
+//
 // Shaft culling's decisions alone, on both scenes: ns per facing pair with the polygon-pair tier
 // and with the element-level test alone.
 //
@@ -238,6 +241,44 @@ BENCHMARK(BM_VisibilityVsRawPacketRatio)
     ->Arg(0)
     ->Unit(benchmark::kMillisecond)
     ->MinTime(3.0);
+
+// The direction sampler of close pairs (SolidAngleSampler: one per ray, made at the ray's source
+// point, then one point drawn), against the same raw packet rate, interleaved as above: each
+// iteration draws 4,096 points as trace_close does (a jittered source point on a 0.4 m square
+// 0.1 m in front of a unit quad, a stratified (u, v) for the direction), then casts as many raw
+// rtcOccluded16 rays. "ratio" is the sampler's points/s over the raw rays/s: how many rays' worth
+// of Embree time one sample costs is 1 / ratio. (hospital.mgf's build spent ~25% of its time here
+// before 2026-11-27: docs/formfactors.md, "hospital.mgf's build, profiled and cut".)
+void BM_SolidAngleSamplerVsRawPacketRatio(benchmark::State& state) {
+  const std::vector<Vec3> quad = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0.02}, {0, 1, 0}};
+  const Vec3 normal = glm::normalize(glm::cross(quad[1] - quad[0], quad[3] - quad[0]));
+  constexpr int kSamples = 4096;
+  RawPackets raw;
+  Pcg32 rng(11);
+  Vec3 sum(0.0);
+  double seconds = 0.0;
+  uint64_t samples = 0;
+  for (auto _ : state) {
+    const timespec start = thread_now();
+    for (int k = 0; k < kSamples; ++k) {
+      const Vec3 x(0.3 + 0.4 * rng.next_double(), 0.3 + 0.4 * rng.next_double(), 0.1);
+      const SolidAngleSampler toward(x, quad, normal);
+      const double u = ((k & 63) + rng.next_double()) / 64.0,
+                   v = ((k >> 6) + rng.next_double()) / 64.0;
+      sum += toward.solid_angle() * toward.point(u, v);
+    }
+    seconds += thread_seconds(start);
+    samples += kSamples;
+    raw.cast(kSamples);
+  }
+  benchmark::DoNotOptimize(sum);
+  const double rate = double(samples) / seconds, raw_rate = double(raw.rays) / raw.seconds;
+  state.counters["samples/s"] = rate;
+  state.counters["raw16 rays/s"] = raw_rate;
+  state.counters["ratio"] = rate / raw_rate;
+  state.counters["ns/sample"] = 1e9 * seconds / double(samples);
+}
+BENCHMARK(BM_SolidAngleSamplerVsRawPacketRatio)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 
 // Shaft culling's decisions alone (shaft.h), on the facing pairs of 64 rows spread over the mesh:
 // argument 1 the default two tiers (polygon-pair candidates, then the element-level test on them),

@@ -1,6 +1,7 @@
 // Lambert's point-to-polygon formula (src/radlab/formfactor/point_polygon.h): the scalar path, one
-// point at a time with libm's atan2, against the batched evaluator, all of a rule's points against
-// one polygon in one call, on the inputs the raycast form factors give it.
+// point at a time (with the inline atan2 since 2026-11-27, libm's before), against the batched
+// evaluator, all of a rule's points against one polygon in one call, on the inputs the raycast
+// form factors give it.
 //
 // Inputs: the Cornell box at --subdiv 16 (5,120 elements, as bench_formfactors). For 64 rows
 // spread over the mesh, every facing pair (i, j) whose fixed Gauss rule suffices (raycast's
