@@ -57,7 +57,7 @@ const char* batch_kernel_name(BatchKernel kernel = BatchKernel::kBest);
 // out[k] = point_to_polygon_form_factor(x_k, n, polygon, polygon_normal, ...) up to rounding
 // (1e-13 relative; the same formula, geometry and inline atan2, its polynomial fused). The
 // polygon is set up once and the points run four at a time through branch-free loops
-// (fast_atan.h) that the compiler vectorises; polygons of 3 to 8 corners (others: the scalar
+// (fast_atan.h) that the compiler vectorises; polygons of 3 to 16 corners (others: the scalar
 // path). The scalar path's rules are kept exactly: points that see the polygon's back get 0;
 // points whose tangent plane cuts the polygon take the scalar path (which clips); points whose
 // edge terms cancel so much that rounding differences could exceed ~1e-13 (a polygon seen

@@ -37,9 +37,12 @@
 namespace radlab {
 namespace {
 
-constexpr size_t kLanes = 4;       // one AVX2 register of doubles, two SSE2 ones
-constexpr size_t kBlock = 64;      // points per kernel call; a multiple of kLanes
-constexpr size_t kMaxCorners = 8;  // polygons with more corners take the scalar path
+constexpr size_t kLanes = 4;   // one AVX2 register of doubles, two SSE2 ones
+constexpr size_t kBlock = 64;  // points per kernel call; a multiple of kLanes
+// Polygons with more corners take the scalar path. 16: examp1.mgf's luminaire has 15-gons, and a
+// clip at the points' plane adds a corner; with 8, a quarter of its quadrature points (10 M)
+// went through the scalar path.
+constexpr size_t kMaxCorners = 16;
 
 // The batched sum may differ from the scalar one by a few ulp per edge term: the AVX2 build fuses
 // atan2_upper's polynomial (the scalar path's is unfused), and the roundings after it differ;
@@ -243,39 +246,38 @@ void point_to_polygon_form_factors(const PointBatch& points, const Vec3& n,
                                    std::span<const Vec3> polygon, const Vec3& polygon_normal,
                                    double* out, std::vector<Vec3>& scratch, BatchKernel kernel) {
   const size_t count = points.count;
-  size_t corners = polygon.size();
-  if (corners < 3 || corners > kMaxCorners) {
-    for (size_t k = 0; k < count; ++k)
-      out[k] = point_to_polygon_form_factor(Vec3(points.x[k], points.y[k], points.z[k]), n, polygon,
-                                            polygon_normal, scratch);
-    return;
-  }
   // Every point's tangent plane has the normal n, so the part of the polygon below the lowest
   // of them is below every point's and is clipped off once here, not per point: the quadrature
   // points of one element share its plane, and against a polygon crossing that plane (a floor
   // that runs on behind a small face standing on it) every point took the scalar path, a clip
   // and a scalar sum (hospital.mgf: three quarters of its points). Each point then clips what
   // remains below its own plane, if anything (below_tangent_plane), as before.
-  size_t lowest = 0;
-  double lowest_height = std::numeric_limits<double>::infinity();
-  for (size_t k = 0; k < count; ++k) {
-    const double height = n.x * points.x[k] + n.y * points.y[k] + n.z * points.z[k];
-    if (height < lowest_height) lowest_height = height, lowest = k;
-  }
-  const Vec3 origin(points.x[lowest], points.y[lowest], points.z[lowest]);
-  bool cut = false;
-  for (const Vec3& c : polygon) cut = cut || glm::dot(c - origin, n) < 0.0;
-  if (cut && count > 1) {
-    thread_local std::vector<Vec3> above;
-    geometry::clip_to_halfspace(polygon, origin, n, above);
-    if (above.size() < 3) {  // nothing of the polygon above any point's tangent plane
-      std::fill(out, out + count, 0.0);
-      return;
+  if (count > 1 && polygon.size() >= 3) {
+    size_t lowest = 0;
+    double lowest_height = std::numeric_limits<double>::infinity();
+    for (size_t k = 0; k < count; ++k) {
+      const double height = n.x * points.x[k] + n.y * points.y[k] + n.z * points.z[k];
+      if (height < lowest_height) lowest_height = height, lowest = k;
     }
-    if (above.size() <= kMaxCorners) {
+    const Vec3 origin(points.x[lowest], points.y[lowest], points.z[lowest]);
+    bool cut = false;
+    for (const Vec3& c : polygon) cut = cut || glm::dot(c - origin, n) < 0.0;
+    if (cut) {
+      thread_local std::vector<Vec3> above;
+      geometry::clip_to_halfspace(polygon, origin, n, above);
+      if (above.size() < 3) {  // nothing of the polygon above any point's tangent plane
+        std::fill(out, out + count, 0.0);
+        return;
+      }
       polygon = above;
-      corners = above.size();
     }
+  }
+  const size_t corners = polygon.size();
+  if (corners < 3 || corners > kMaxCorners) {
+    for (size_t k = 0; k < count; ++k)
+      out[k] = point_to_polygon_form_factor(Vec3(points.x[k], points.y[k], points.z[k]), n, polygon,
+                                            polygon_normal, scratch);
+    return;
   }
   const Kernel run = resolve(kernel)[corners];
   uint8_t scalar[kBlock];
