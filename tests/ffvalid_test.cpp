@@ -323,13 +323,48 @@ TEST(RaycastNearPairs, NearCoplanarStripsApartAreSplitOnTheirDistance) {
   RowCost cost;
   raycast.row(0, row, cost);
   ExactOptions exact_options;
-  exact_options.tolerance = 1e-8;  // 0.06 s here; at 1e-9 minutes
+  exact_options.tolerance = 1e-8;
   const ExactFormFactors exact(scene, mesh, exact_options);
   RowCost exact_cost;
   const double truth = exact.pair(0, 1, exact_cost);
   ASSERT_GT(truth, 1e-6);
   EXPECT_NEAR(row[1] / truth, 1.0, RaycastOptions{}.tolerance) << truth;
   EXPECT_LT(cost.kernel_evaluations, 200000u);
+}
+
+// The same two strips with `exact` at tight tolerances. They see each other nearly edge-on, and
+// the adaptive rule's running error sum (children added, parents taken away, millions of times)
+// once drifted above the tolerance by rounding on the scale of the first cells' errors: at 1e-9
+// the running sum stood at 6.7e-16 against 1.55e-16 allowed while the cells' own errors summed
+// to 3.1e-19, and the pair refined for minutes, growing to gigabytes (polygon_integral.cpp: the
+// sums are now made afresh at steps 1024, 2048, ...). Each tolerance must now be met without the
+// work cap (2e7 evaluations, exact.cpp): nothing stated beyond it, under 5e6 evaluations
+// (measured 1.2e6 at 1e-10), and every value within its tolerance of the tightest one's.
+TEST(ExactNearPairs, TightTolerancesOnNearCoplanarStripsConverge) {
+  const std::vector<Vec3> upper = {{0.6096, -0.070442328, -0.008890508},
+                                   {0.6096, -0.072972676, -0.020743672},
+                                   {-0.6096, -0.072972676, -0.020743672},
+                                   {-0.6096, -0.070442328, -0.008890508}};
+  const std::vector<Vec3> lower = {{0.6096, -0.075418188, -0.032596836},
+                                   {0.6096, -0.0777875, -0.04445},
+                                   {-0.6096, -0.0777875, -0.04445},
+                                   {-0.6096, -0.075418188, -0.032596836}};
+  Scene scene = scene_of({upper, lower});
+  validate_scene(scene, /*keep_overlaps=*/true);
+  const Mesh mesh = build_mesh(scene, {});
+  std::vector<double> values;
+  for (const double tolerance : {1e-8, 1e-9, 1e-10}) {
+    ExactOptions options;
+    options.tolerance = tolerance;
+    const ExactFormFactors exact(scene, mesh, options);
+    RowCost cost;
+    values.push_back(exact.pair(0, 1, cost));
+    EXPECT_LT(cost.kernel_evaluations, 5000000u) << tolerance;
+    EXPECT_EQ(exact.pairs_capped(), 0u) << tolerance;
+    EXPECT_EQ(exact.largest_row_excess(), 0.0) << tolerance;
+  }
+  EXPECT_NEAR(values[0] / values[2], 1.0, 1e-8);
+  EXPECT_NEAR(values[1] / values[2], 1.0, 1e-9);
 }
 
 // The small RenderPark scenes with the default raycast: no row above 1 + its stated error

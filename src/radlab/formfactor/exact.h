@@ -111,16 +111,18 @@ class ExactFormFactors final : public FormFactorMethod {
   static double reciprocal(double f_ab, double area_a, double area_b) {
     return f_ab * (area_a / area_b);
   }
-  // clip mode: the largest, over the rows, of the row's stated error beyond `tolerance`: the sum
-  // over its pairs stopped by max_evaluations (or max_depth) of their remaining estimated error
+  // The largest, over the rows, of the row's stated error beyond `tolerance`: the sum over its
+  // pairs stopped by the work cap (clip mode: max_evaluations; unoccluded pairs: 2e7
+  // evaluations, exact.cpp) or by max_depth of their remaining estimated error
   // less tolerance * F (0 when every pair reached the tolerance). Covers the pairs integrated so
   // far in this process; thread-safe.
   double largest_row_excess() const;
   double row_excess(size_t i) const;
   // How many pairs so far stopped short of the tolerance (each unordered pair once).
   size_t pairs_capped() const;
-  // Whether the method records row excesses (clip mode on a scene that can occlude): a matrix
-  // loaded from the cache then needs them from the file kept beside it (save_/load_row_excess).
+  // Whether the method records row excesses (always, since unoccluded pairs have a work cap
+  // too): a matrix loaded from the cache then needs them from the file kept beside it
+  // (save_/load_row_excess).
   bool records_row_excess() const { return !row_excess_.empty(); }
   std::vector<double> row_excesses() const;
   void set_row_excesses(std::vector<double> excess, size_t pairs) const;
