@@ -300,13 +300,9 @@ TEST(RaycastNearPairs, ThinFacesAlongALongSharedEdgeConverge) {
   EXPECT_LT(cost.kernel_evaluations, 20000000u);
 }
 
-// A close pair is split on its distance, not its height above j's plane (raycast.cpp): two of
-// examp1.mgf's lower reflector strips (examp1.mgf:249 and :251, elements 135 and 137), 1.2 m x
-// 1.2 cm, 0.013 rad apart and 1.2 cm from each other (the strip between them left out here).
-// i's nearest corner is 7.5e-5 m above j's plane, so the pair was started from 64 x 64 cells
-// per fan triangle: 5.6e6 evaluations for an entry of 1e-5, six such pairs half of examp1's
-// quadrature. The integrand varies on the 1.2 cm: 3.4e4 evaluations, within the tolerance.
-TEST(RaycastNearPairs, NearCoplanarStripsApartAreSplitOnTheirDistance) {
+// Two of examp1.mgf's lower reflector strips (lines 249 and 251): 1.2 m x 1.2 cm, 0.013 rad
+// apart and 1.2 cm from each other, each 7.5e-5 m above the other's plane.
+Scene reflector_strips() {
   const std::vector<Vec3> upper = {{0.6096, -0.070442328, -0.008890508},
                                    {0.6096, -0.072972676, -0.020743672},
                                    {-0.6096, -0.072972676, -0.020743672},
@@ -317,6 +313,17 @@ TEST(RaycastNearPairs, NearCoplanarStripsApartAreSplitOnTheirDistance) {
                                    {-0.6096, -0.075418188, -0.032596836}};
   Scene scene = scene_of({upper, lower});
   validate_scene(scene, /*keep_overlaps=*/true);
+  return scene;
+}
+
+// A close pair is split on its distance, not its height above j's plane (raycast.cpp): two of
+// examp1.mgf's lower reflector strips (examp1.mgf:249 and :251, elements 135 and 137), 1.2 m x
+// 1.2 cm, 0.013 rad apart and 1.2 cm from each other (the strip between them left out here).
+// i's nearest corner is 7.5e-5 m above j's plane, so the pair was started from 64 x 64 cells
+// per fan triangle: 5.6e6 evaluations for an entry of 1e-5, six such pairs half of examp1's
+// quadrature. The integrand varies on the 1.2 cm: 3.4e4 evaluations, within the tolerance.
+TEST(RaycastNearPairs, NearCoplanarStripsApartAreSplitOnTheirDistance) {
+  const Scene scene = reflector_strips();
   const Mesh mesh = build_mesh(scene, {});
   const RaycastFormFactors raycast(scene, mesh, {});
   std::vector<double> row(2, 0.0);
@@ -341,16 +348,7 @@ TEST(RaycastNearPairs, NearCoplanarStripsApartAreSplitOnTheirDistance) {
 // work cap (2e7 evaluations, exact.cpp): nothing stated beyond it, under 5e6 evaluations
 // (measured 1.2e6 at 1e-10), and every value within its tolerance of the tightest one's.
 TEST(ExactNearPairs, TightTolerancesOnNearCoplanarStripsConverge) {
-  const std::vector<Vec3> upper = {{0.6096, -0.070442328, -0.008890508},
-                                   {0.6096, -0.072972676, -0.020743672},
-                                   {-0.6096, -0.072972676, -0.020743672},
-                                   {-0.6096, -0.070442328, -0.008890508}};
-  const std::vector<Vec3> lower = {{0.6096, -0.075418188, -0.032596836},
-                                   {0.6096, -0.0777875, -0.04445},
-                                   {-0.6096, -0.0777875, -0.04445},
-                                   {-0.6096, -0.075418188, -0.032596836}};
-  Scene scene = scene_of({upper, lower});
-  validate_scene(scene, /*keep_overlaps=*/true);
+  const Scene scene = reflector_strips();
   const Mesh mesh = build_mesh(scene, {});
   std::vector<double> values;
   for (const double tolerance : {1e-8, 1e-9, 1e-10}) {
