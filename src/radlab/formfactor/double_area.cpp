@@ -28,6 +28,17 @@ ElementRules::ElementRules(const Mesh& mesh) {
 
 namespace {
 
+// One term of the double sum: v_l (n_i.d)(-n_j.d) / |d|^4 for d = y_l - x_k (both loops below).
+[[gnu::always_inline]] inline double kernel_term(double ax, double ay, double az, double bx,
+                                                 double by, double bz, double bw, const Vec3& n_i,
+                                                 const Vec3& n_j) {
+  const double dx = bx - ax, dy = by - ay, dz = bz - az;
+  const double r2 = dx * dx + dy * dy + dz * dz;
+  const double ci = n_i.x * dx + n_i.y * dy + n_i.z * dz;
+  const double cj = -(n_j.x * dx + n_j.y * dy + n_j.z * dz);
+  return bw * (ci * cj) / (r2 * r2);
+}
+
 // Rules of NA and NB points (compile-time sizes: every loop unrolled and vectorised). The same
 // operations in the same order as the general loop below, so the same bits.
 template <size_t NA, size_t NB>
@@ -38,13 +49,8 @@ template <size_t NA, size_t NB>
   for (size_t k = 0; k < NA; ++k) {
     const double ax = a.x[k], ay = a.y[k], az = a.z[k];
     double term[NB];
-    for (size_t l = 0; l < NB; ++l) {
-      const double dx = b.x[l] - ax, dy = b.y[l] - ay, dz = b.z[l] - az;
-      const double r2 = dx * dx + dy * dy + dz * dz;
-      const double ci = n_i.x * dx + n_i.y * dy + n_i.z * dz;
-      const double cj = -(n_j.x * dx + n_j.y * dy + n_j.z * dz);
-      term[l] = b.w[l] * (ci * cj) / (r2 * r2);
-    }
+    for (size_t l = 0; l < NB; ++l)
+      term[l] = kernel_term(ax, ay, az, b.x[l], b.y[l], b.z[l], b.w[l], n_i, n_j);
     double inner = 0.0;
     for (size_t l = 0; l < NB; ++l) inner += term[l];
     sum += a.w[k] * inner;
@@ -85,13 +91,8 @@ template <size_t NA, size_t NB>
     for (size_t first = 0; first < b.count; first += kBlock) {
       const size_t count = std::min(kBlock, b.count - first);
       const double *bx = b.x + first, *by = b.y + first, *bz = b.z + first, *bw = b.w + first;
-      for (size_t l = 0; l < count; ++l) {
-        const double dx = bx[l] - ax, dy = by[l] - ay, dz = bz[l] - az;
-        const double r2 = dx * dx + dy * dy + dz * dz;
-        const double ci = n_i.x * dx + n_i.y * dy + n_i.z * dz;
-        const double cj = -(n_j.x * dx + n_j.y * dy + n_j.z * dz);
-        term[l] = bw[l] * (ci * cj) / (r2 * r2);
-      }
+      for (size_t l = 0; l < count; ++l)
+        term[l] = kernel_term(ax, ay, az, bx[l], by[l], bz[l], bw[l], n_i, n_j);
       for (size_t l = 0; l < count; ++l) inner += term[l];
     }
     sum += a.w[k] * inner;

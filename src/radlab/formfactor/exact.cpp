@@ -20,11 +20,12 @@
 namespace radlab {
 
 // The work cap of an unoccluded pair's adaptive integral (kernel evaluations, ~2 s here; the
-// cells it keeps stay below ~300 MB a thread), raycast's cap. Without one, a pair whose
-// integrand is noisier than the tolerance never finishes: examp1.mgf's near-coplanar reflector
-// strips see each other nearly edge-on, Lambert's terms cancel by ~1e5, and at tolerance 3e-9
-// (the default is 1e-10) the pair ran for minutes and grew to gigabytes (docs/formfactors.md,
-// "Work cap on unoccluded pairs"). What a capped pair leaves is stated (record_excess).
+// cells it keeps stay below ~300 MB a thread), raycast's cap. Without one, a pair that cannot
+// show it meets the tolerance refines until max_depth, 4^16 cells a root: examp1.mgf's
+// near-coplanar reflector strips at tolerance 1e-9 ran for minutes and grew to gigabytes
+// before the adaptive rule's running error sum was made afresh now and then
+// (polygon_integral.cpp; docs/formfactors.md, "Work cap on unoccluded pairs"). What a capped
+// pair leaves is stated (record_excess).
 constexpr long long kUnoccludedEvaluations = 20000000;
 
 ExactOptions ExactOptions::from(ParamBag& bag) {
@@ -149,8 +150,10 @@ std::vector<std::string> ExactFormFactors::left_out() const {
   }
   if (!shafts_ && pairs_capped() > 0)
     notes.push_back(std::to_string(pairs_capped()) +
-                    " pairs stopped short of the tolerance (at most 2e7 evaluations a pair, or "
-                    "max_depth); their remaining error is in the stated error");
+                    " pairs stopped short of the tolerance (at most " +
+                    std::to_string(kUnoccludedEvaluations) +
+                    " evaluations a pair, or max_depth); their remaining error is in the stated "
+                    "error");
   return notes;
 }
 
