@@ -12,9 +12,11 @@
 // Separated pairs first try fixed Gauss rules of orders m and m - 1 (m from the Bernstein bound;
 // the double-area rule of double_area.h where both elements face each other wholly, else
 // Lambert's formula on a single-area rule) and keep order m when the two agree within
-// `tolerance` (exact.cpp, unoccluded()). Each pair is integrated over its smaller element (the
-// lower index on a tie) and the other entry follows by reciprocity, so the symmetric build
-// (symmetric_build.h) and every row give the same bits.
+// `tolerance` (exact.cpp, unoccluded()). A pair the adaptive rule does not finish within a few
+// thousand evaluations (near and touching pairs at tight tolerances) goes to the contour integral
+// (contour_integral.h), whose cost grows with the logarithm of the tolerance. Each pair is
+// integrated over its smaller element (the lower index on a tie) and the other entry follows by
+// reciprocity, so the symmetric build (symmetric_build.h) and every row give the same bits.
 //
 // Visibility. The formula knows nothing of occluders, so the method is valid only when no pair
 // can be occluded: the scene is a convex enclosure, or shaft culling (shaft.h) proves every

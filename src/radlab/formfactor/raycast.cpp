@@ -9,6 +9,7 @@
 
 #include "radlab/core/error.h"
 #include "radlab/core/text.h"
+#include "radlab/formfactor/contour_integral.h"
 #include "radlab/formfactor/pair_geometry.h"
 #include "radlab/formfactor/polygon_integral.h"
 #include "radlab/scene/geometry.h"
@@ -28,6 +29,15 @@ constexpr long long kAdaptiveEvaluations = 20000000;
 // the sum of the cells' error estimates fell below the true error (unit squares 0.1 mm apart:
 // estimate under 1e-4 F, error 1.07e-4 F; at a quarter, 8e-7 F).
 constexpr double kSplitTolerance = 0.25;
+// Near pairs by contour integrals: the tolerance's share they work to (their error estimate was
+// honest at every tolerance tested, tests/contour_integral_test.cpp, and their cost grows only
+// with the logarithm of the tolerance, so the margin is cheap), and their work cap in outer points
+// (a pair of 16-gons starts from ~4,000).
+constexpr double kContourTolerance = 0.25;
+constexpr long long kContourEvaluations = 200000;
+// The area rule's work on a pair started from one cell before the contour integral takes over
+// (checked before each split of 144 evaluations, so the rule stops at most that far beyond it).
+constexpr long long kAreaFirst = 4096;
 // A thin i (longer than kThinStart times the larger of its width and j's shortest edge) starts
 // from at most kMaxStrips strips across its length, and a close pair from at most kMaxPieces
 // triangles in all (unoccluded_over).
@@ -204,7 +214,23 @@ double RaycastFormFactors::unoccluded_over(size_t i, size_t j, RowCost& cost, do
   const double strip_length = std::max(width, to_shortest);
   const bool thin = longest > kThinStart * strip_length;
   double f = 0.0, estimated = 0.0;
+  // Near and touching pairs by the contour integral (contour_integral.h): one-dimensional, ~1e3
+  // points where the area rule's many starting cells below take ~1e5 (examp1.mgf:
+  // docs/formfactors.md, "Near pairs by contour integrals"). The area rule integrates the pairs
+  // where it does not converge within its cap.
+  const auto contour = [&](ContourIntegral& c) {
+    c = contour_form_factor_front(from, mesh_.centroid[i], mesh_.normal[i], to, mesh_.normal[j],
+                                  mesh_.area[i], plane_epsilon_,
+                                  kContourTolerance * options_.tolerance, kContourEvaluations);
+    cost.kernel_evaluations += uint64_t(c.evaluations);
+    return c.converged;
+  };
+  ContourIntegral c;
   if (split >= 4 || thin) {
+    if (contour(c)) {
+      *error = c.error;
+      return c.form_factor;
+    }
     // The pieces are the starting cells of one adaptive integral: one error budget (tolerance *
     // F^u_ij over the whole pair) and one work cap, as for a pair started from one cell.
     thread_local std::vector<Vec3> base, pieces;
@@ -245,8 +271,20 @@ double RaycastFormFactors::unoccluded_over(size_t i, size_t j, RowCost& cost, do
                                             depth, &evaluations, kAdaptiveEvaluations, &estimated,
                                             /*split_every_root=*/split >= 4);
   } else {
+    // A pair started from one cell: the area rule first, while it is cheap (it converges within
+    // kAreaFirst on most such pairs); the contour integral where it is not.
     f = polygon_integral_adaptive(a, b, nullptr, options_.tolerance, 1e-14 / kept, depth,
-                                  &evaluations, kAdaptiveEvaluations, &estimated);
+                                  &evaluations, kAreaFirst, &estimated);
+    if (evaluations >= kAreaFirst) {
+      cost.kernel_evaluations += uint64_t(evaluations);
+      if (contour(c)) {
+        *error = c.error;
+        return c.form_factor;
+      }
+      evaluations = 0;
+      f = polygon_integral_adaptive(a, b, nullptr, options_.tolerance, 1e-14 / kept, depth,
+                                    &evaluations, kAdaptiveEvaluations, &estimated);
+    }
   }
   *error = kept * estimated;
   cost.kernel_evaluations += uint64_t(evaluations);

@@ -5,8 +5,11 @@
 // F^u_ij, the unoccluded form factor, integrates Lambert's exact point-to-polygon formula over
 // the part of element i in front of j's plane (clip_to_front; the formula itself clips j to i's
 // tangent plane): a Gauss rule whose order follows from the pair's separation and from how
-// nearly the kept part grazes j's plane (Bernstein bound, polygon_integral.h), or the adaptive
-// rule for near and touching pairs. V_ij, the visibility fraction, is the share of `rays` Embree
+// nearly the kept part grazes j's plane (Bernstein bound, polygon_integral.h), or for near and
+// touching pairs the contour integral (contour_integral.h: Stokes' theorem turns the pair's
+// double area integral into one over both outlines, elementary inside and one-dimensional
+// outside), with the adaptive area rule where that does not converge and first on pairs it
+// finishes cheaply. V_ij, the visibility fraction, is the share of `rays` Embree
 // occlusion rays that arrive unblocked between stratified, jittered points on those same two
 // parts (i in front of j's plane, j in front of i's): rays from a part the integral leaves out
 // would be blocked by the very polygon that cuts it off. The points depend only on
