@@ -222,6 +222,23 @@ TEST(RaycastNearPairs, ParallelSquaresAMillimetreApartMeetTheTolerance) {
   }
 }
 
+// Near pairs go to the contour integral (contour_integral.h): one-dimensional, so a pair 1 mm to
+// 10 um apart costs 1,200-2,040 outer points, where the area rule's close-pair start at 1 mm
+// (cells of ~16 gaps: 63 x 63 x 2 triangles, each split once into four 3x3 rules) took at least
+// 2.8e5 evaluations. The values meet the tolerance against the closed form (Howell C-11).
+TEST(RaycastNearPairs, NearPairsCostAFewThousandPointsByContourIntegrals) {
+  for (double gap : {1e-3, 1e-4, 1e-5}) {
+    Scene scene = scene_of({square_z(0.0, true), square_z(gap, false)});
+    validate_scene(scene, /*keep_overlaps=*/true);
+    const Mesh mesh = build_mesh(scene, {});
+    const RaycastFormFactors ff(scene, mesh, {});
+    RowCost cost;
+    const double f = ff.pair(0, 1, cost);
+    EXPECT_NEAR(f / parallel_rectangles(1.0, 1.0, gap) - 1.0, 0.0, 1e-4) << gap;
+    EXPECT_LT(cost.kernel_evaluations, 5000u) << gap;
+  }
+}
+
 // One budget per pair (raycast.cpp): a close pair starts from up to 64 x 64 cells per fan
 // triangle, and integrating each cell to the tolerance of its own value, with a work cap each,
 // let a single pair of office1/graz.mgf run for over 10 minutes (its build did not finish): the
