@@ -203,10 +203,27 @@ void BM_StreamRow(benchmark::State& state, const Problem* p, Order order) {
   report(state, *p, order, k, s);
 }
 
+// The kernels a benchmark runs: the default (the widest the CPU has), or one set forced. The
+// label names the set that ran.
+enum class Kernels { kDefault, kAvx2, kScalar };
+
+void use(benchmark::State& state, Kernels k) {
+  if (k == Kernels::kDefault)
+    kernels::use_vector_kernels(true);
+  else
+    kernels::use_kernels(k == Kernels::kAvx2 ? kernels::KernelSet::kAvx2
+                                             : kernels::KernelSet::kScalar);
+  state.SetLabel(kernels::kernel_set_name(kernels::kernels_in_use()));
+}
+
+std::string suffix(Kernels k) {
+  return k == Kernels::kDefault ? "" : k == Kernels::kAvx2 ? "/avx2" : "/scalar";
+}
+
 // One solver step per iteration, timed as the runner does (rows from System::with_row).
 void BM_Step(benchmark::State& state, const Problem* p, const char* name,
-             std::vector<std::string> params, Order order, bool vector) {
-  kernels::use_vector_kernels(vector);
+             std::vector<std::string> params, Order order, Kernels k) {
+  use(state, k);
   ParamBag bag = ParamBag::from_assignments(params, name);
   auto solver = make_solver(name, bag);
   solver->init(*p->system);
@@ -222,7 +239,9 @@ void BM_Step(benchmark::State& state, const Problem* p, const char* name,
 // scattered rows, the access pattern of sorted shooting, without the solvers' selection logic:
 // to separate the cost of the fused selection from the rest of a step. With offsets, the
 // selection is overshooting's A_j sum_c |dB_cj + o_cj| (o: one more array read per channel).
-void BM_ShotKernel(benchmark::State& state, const Problem* p, bool select, bool offsets) {
+void BM_ShotKernel(benchmark::State& state, const Problem* p, bool select, bool offsets,
+                   Kernels k) {
+  use(state, k);
   const System& sys = *p->system;
   const size_t n = sys.size();
   ShootingCore core;
@@ -239,10 +258,12 @@ void BM_ShotKernel(benchmark::State& state, const Problem* p, bool select, bool 
   }
   const double t = cpu_seconds() - start;
   report(state, *p, Order::kScattered, row, t);
+  kernels::use_vector_kernels(true);
 }
 
 // The gather kernel on rows in order (as Gauss-Seidel reads them).
-void BM_GatherKernel(benchmark::State& state, const Problem* p) {
+void BM_GatherKernel(benchmark::State& state, const Problem* p, Kernels k) {
+  use(state, k);
   const System& sys = *p->system;
   const size_t n = sys.size();
   double out[3];
@@ -254,6 +275,7 @@ void BM_GatherKernel(benchmark::State& state, const Problem* p) {
   }
   const double s = cpu_seconds() - start;
   report(state, *p, Order::kInOrder, row, s);
+  kernels::use_vector_kernels(true);
 }
 
 // The RGB problem's matrix with half its entries zero in blocks of 64 columns (a culled or
@@ -349,13 +371,18 @@ void register_all() {
                                  Order::kInOrder);
     benchmark::RegisterBenchmark(("StreamRow/" + tag + "/scattered").c_str(), BM_StreamRow, p,
                                  Order::kScattered);
-    benchmark::RegisterBenchmark((tag + "/kernel/Gather").c_str(), BM_GatherKernel, p);
-    benchmark::RegisterBenchmark((tag + "/kernel/Shot(no selection)").c_str(), BM_ShotKernel, p,
-                                 false, false);
-    benchmark::RegisterBenchmark((tag + "/kernel/Shot(fused selection)").c_str(), BM_ShotKernel, p,
-                                 true, false);
-    benchmark::RegisterBenchmark((tag + "/kernel/Shot(fused selection, overshoot offsets)").c_str(),
-                                 BM_ShotKernel, p, true, true);
+    // The default kernels and AVX2 side by side (the same on a CPU without AVX-512).
+    for (Kernels k : {Kernels::kDefault, Kernels::kAvx2}) {
+      const std::string end = suffix(k);
+      benchmark::RegisterBenchmark((tag + "/kernel/Gather" + end).c_str(), BM_GatherKernel, p, k);
+      benchmark::RegisterBenchmark((tag + "/kernel/Shot(no selection)" + end).c_str(),
+                                   BM_ShotKernel, p, false, false, k);
+      benchmark::RegisterBenchmark((tag + "/kernel/Shot(fused selection)" + end).c_str(),
+                                   BM_ShotKernel, p, true, false, k);
+      benchmark::RegisterBenchmark(
+          (tag + "/kernel/Shot(fused selection, overshoot offsets)" + end).c_str(), BM_ShotKernel,
+          p, true, true, k);
+    }
     struct Case {
       const char* label;
       const char* solver;
@@ -379,14 +406,20 @@ void register_all() {
         {"CGIteration", "conjugate-gradient", {}, in_order, 20},
         {"CGIteration(symmetrise)", "conjugate-gradient", {"symmetrise=true"}, in_order, 20},
     };
-    for (bool vector : {true, false})
-      for (const Case& c : cases) {
-        const std::string label = tag + "/" + c.label + (vector ? "" : "/scalar");
-        auto* b = benchmark::RegisterBenchmark(label.c_str(), BM_Step, p, c.solver, c.params,
-                                               c.order, vector);
-        if (c.iterations) b->Iterations(c.iterations);
-        b->Unit(benchmark::kMicrosecond);
-      }
+    const auto add = [&](const Case& c, Kernels k) {
+      const std::string label = tag + "/" + c.label + suffix(k);
+      auto* b =
+          benchmark::RegisterBenchmark(label.c_str(), BM_Step, p, c.solver, c.params, c.order, k);
+      if (c.iterations) b->Iterations(c.iterations);
+      b->Unit(benchmark::kMicrosecond);
+    };
+    // The default kernels (AVX-512 where the CPU has it) and AVX2 back to back, case by case,
+    // so that the two are measured in the same state of a shared machine; the scalar ones last.
+    for (const Case& c : cases) {
+      add(c, Kernels::kDefault);
+      add(c, Kernels::kAvx2);
+    }
+    for (const Case& c : cases) add(c, Kernels::kScalar);
   }
 }
 
