@@ -353,23 +353,28 @@ KernelSet best_up_to(KernelSet limit) {
   return KernelSet::kScalar;
 }
 
-// RADLAB_KERNELS: "scalar" forces the scalar versions, "avx2" the AVX2 ones even where AVX-512
-// is there (to compare the two); unset, empty or "auto" leaves the choice to the CPU. Anything
-// else is refused (check_kernel_environment) rather than ignored.
+// RADLAB_KERNELS: "scalar" forces the scalar versions, "avx512" asks for AVX-512 where the CPU
+// has it, "avx2" for AVX2; unset, empty or "auto" is AVX2 where the CPU has it. Anything else is
+// refused (check_kernel_environment) rather than ignored.
 const char* kernel_environment() {
   const char* value = std::getenv("RADLAB_KERNELS");
   return value ? value : "";
 }
 
-KernelSet environment_limit() {
-  const std::string value = kernel_environment();
-  if (value == "scalar") return KernelSet::kScalar;
-  if (value == "avx2") return KernelSet::kAvx2;
-  return KernelSet::kAvx512;
+// The vector set used by default: AVX2 even where AVX-512 is there. On the AMD EPYC (Zen 4) these
+// kernels were measured on, the AVX-512 versions were nowhere clearly faster and up to 17% slower
+// (the grey shots, the RGB gather; docs/performance.md, session avx512): Zen 4 executes a 512-bit
+// operation as two 256-bit halves, and these loops are bound by the L2-resident state they move,
+// not by their instruction count. RADLAB_KERNELS=avx512 selects them (for CPUs with full-width
+// AVX-512 units, where that may differ: not measured).
+KernelSet default_vector_set() {
+  return best_up_to(std::string(kernel_environment()) == "avx512" ? KernelSet::kAvx512
+                                                                  : KernelSet::kAvx2);
 }
 
 std::atomic<KernelSet>& active_set() {
-  static std::atomic<KernelSet> set{best_up_to(environment_limit())};
+  static std::atomic<KernelSet> set{
+      std::string(kernel_environment()) == "scalar" ? KernelSet::kScalar : default_vector_set()};
   return set;
 }
 
@@ -743,13 +748,15 @@ bool vector_kernels() {
 
 void check_kernel_environment() {
   const std::string value = kernel_environment();
-  if (!value.empty() && value != "auto" && value != "scalar" && value != "avx2")
-    throw UsageError("RADLAB_KERNELS must be 'scalar', 'avx2' or 'auto' (or unset), got '" + value +
-                     "'");
+  if (!value.empty() && value != "auto" && value != "scalar" && value != "avx2" &&
+      value != "avx512")
+    throw UsageError(
+        "RADLAB_KERNELS must be 'scalar', 'avx2', 'avx512' or 'auto' (or unset), got '" + value +
+        "'");
 }
 
 bool use_vector_kernels(bool enable) {
-  const KernelSet set = enable ? best_up_to(KernelSet::kAvx512) : KernelSet::kScalar;
+  const KernelSet set = enable ? default_vector_set() : KernelSet::kScalar;
   active_set().store(set);
   return set != KernelSet::kScalar;
 }

@@ -104,11 +104,12 @@ Argmax max_priority(size_t lo, size_t hi, const ShotTargets& targets);
 // out[c] = sum_j A[j] * dB_c[j] (the unshot power); with clamp_negative only positive dB counts.
 void unshot_power(const ShotTargets& targets, size_t n, bool clamp_negative, double* out);
 
-// The instruction sets the kernels come in, narrowest first. The default is the widest the CPU
-// has (__builtin_cpu_supports, at start-up), no wider than the environment variable
-// RADLAB_KERNELS allows: "scalar" forces the scalar versions, "avx2" the AVX2 ones even where
-// AVX-512 is there (to compare the two), "auto" or nothing leaves the choice to the CPU. Every set
-// gives the same bits.
+// The instruction sets the kernels come in, narrowest first. The default is AVX2 where the CPU
+// has it (__builtin_cpu_supports, at start-up), even where AVX-512 is there: on the Zen 4 CPU
+// they were measured on, the AVX-512 versions were nowhere clearly faster (docs/performance.md).
+// The environment variable RADLAB_KERNELS chooses otherwise: "scalar" forces the scalar
+// versions, "avx512" asks for AVX-512 (where the CPU has it), "avx2", "auto" or nothing the
+// default. Every set gives the same bits.
 enum class KernelSet { kScalar, kAvx2, kAvx512 };
 // Whether this build and CPU can run `set` (kScalar: always).
 bool kernels_available(KernelSet set);
@@ -118,12 +119,14 @@ bool use_kernels(KernelSet set);
 KernelSet kernels_in_use();
 // "scalar", "avx2", "avx512".
 const char* kernel_set_name(KernelSet set);
-// Chooses the widest vector set the CPU has (AVX-512, else AVX2), or with false the scalar ones
-// (`radlab --scalar-kernels`); returns whether vector versions are now in use.
+// Chooses the default vector set (above: AVX2, or AVX-512 with RADLAB_KERNELS=avx512), or with
+// false the scalar ones (`radlab --scalar-kernels`); returns whether vector versions are now in
+// use.
 bool use_vector_kernels(bool enable);
 // Whether a vector set (AVX2 or AVX-512) is in use.
 bool vector_kernels();
-// Throws UsageError when RADLAB_KERNELS holds anything but "scalar", "avx2", "auto" or nothing.
+// Throws UsageError when RADLAB_KERNELS holds anything but "scalar", "avx2", "avx512", "auto" or
+// nothing.
 void check_kernel_environment();
 
 }  // namespace radlab::kernels
