@@ -34,11 +34,12 @@ namespace {
 constexpr size_t kLanes = 16;  // sums are kept in 16 lanes: lane = j mod 16
 constexpr size_t kBlock = 64;  // shots find the maximum per block of 64, then inside the block
 // The vector loops prefetch the row twice: kPrefetchL2 elements ahead into L2 only (4 KB of
-// floats; PREFETCHT2), kPrefetchL1 ahead into L1 (512 bytes). One prefetch into L1 from 2 KB
-// ahead (before) held L1's few miss buffers for a whole memory latency, which the shots' loads of
-// their L2-resident state (dB, 1/A, A) need too: a cold row cost the hot row's time plus the
-// raw read's, nearly without overlap. In A/B runs the two distances took 5-35% off most gathers
-// and shots (docs/performance.md, session avx512).
+// floats; PREFETCHT2), kPrefetchL1 ahead into L1 (512 bytes). With one prefetch into L1 from 2 KB
+// ahead (before), a cold row cost the hot row's time plus the raw read's, nearly without overlap;
+// the likely cause (not measured with counters) is that L1 prefetches that far ahead hold L1's
+// few miss buffers for a whole memory latency, which the shots' loads of their L2-resident state
+// (dB, 1/A, A) need too. In A/B runs the two distances took 5-35% off most gathers and shots
+// (docs/performance.md, session avx512).
 constexpr size_t kPrefetchL2 = 1024;
 constexpr size_t kPrefetchL1 = 128;
 constexpr size_t kAlignDoubles = 4;  // shots align their dB stores to 32 bytes
