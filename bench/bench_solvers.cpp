@@ -19,7 +19,9 @@
 // ratio against the raw read of the same rows in the same order (raw_read: 256-bit loads into 8
 // sums where the CPU has AVX2), what one core can stream (issue 13 target 5: >= 0.5). Run:
 //   build/bench/bench_solvers --benchmark_counters_tabular=true
-// Quote the ratios from one run; absolute times on this machine are noisy.
+// Quote the ratios from one run; absolute times on this machine are noisy. Kernels: no suffix =
+// the default (AVX2 where the CPU has it; the label names the set that ran), /avx512 = the
+// AVX-512 versions, /scalar = the scalar ones.
 // rgb/gapped/*: one RGB gather and one RGB sorted shot on a matrix with half its entries zero,
 // dense, sparse through a scratch row, and sparse through kernels::RunRow (the sparse layout's
 // path).
@@ -203,10 +205,27 @@ void BM_StreamRow(benchmark::State& state, const Problem* p, Order order) {
   report(state, *p, order, k, s);
 }
 
+// The kernels a benchmark runs: the default (AVX2 where the CPU has it), AVX-512 or the scalar
+// ones. The label names the set that ran; a set the CPU lacks is reported as an error.
+enum class Kernels { kDefault, kAvx512, kScalar };
+
+void use(benchmark::State& state, Kernels k) {
+  if (k == Kernels::kDefault)
+    kernels::use_vector_kernels(true);
+  else if (!kernels::use_kernels(k == Kernels::kAvx512 ? kernels::KernelSet::kAvx512
+                                                       : kernels::KernelSet::kScalar))
+    state.SkipWithError("this CPU lacks these kernels");
+  state.SetLabel(kernels::kernel_set_name(kernels::kernels_in_use()));
+}
+
+std::string suffix(Kernels k) {
+  return k == Kernels::kDefault ? "" : k == Kernels::kAvx512 ? "/avx512" : "/scalar";
+}
+
 // One solver step per iteration, timed as the runner does (rows from System::with_row).
 void BM_Step(benchmark::State& state, const Problem* p, const char* name,
-             std::vector<std::string> params, Order order, bool vector) {
-  kernels::use_vector_kernels(vector);
+             std::vector<std::string> params, Order order, Kernels k) {
+  use(state, k);
   ParamBag bag = ParamBag::from_assignments(params, name);
   auto solver = make_solver(name, bag);
   solver->init(*p->system);
@@ -222,7 +241,9 @@ void BM_Step(benchmark::State& state, const Problem* p, const char* name,
 // scattered rows, the access pattern of sorted shooting, without the solvers' selection logic:
 // to separate the cost of the fused selection from the rest of a step. With offsets, the
 // selection is overshooting's A_j sum_c |dB_cj + o_cj| (o: one more array read per channel).
-void BM_ShotKernel(benchmark::State& state, const Problem* p, bool select, bool offsets) {
+void BM_ShotKernel(benchmark::State& state, const Problem* p, bool select, bool offsets,
+                   Kernels k) {
+  use(state, k);
   const System& sys = *p->system;
   const size_t n = sys.size();
   ShootingCore core;
@@ -239,10 +260,12 @@ void BM_ShotKernel(benchmark::State& state, const Problem* p, bool select, bool 
   }
   const double t = cpu_seconds() - start;
   report(state, *p, Order::kScattered, row, t);
+  kernels::use_vector_kernels(true);
 }
 
 // The gather kernel on rows in order (as Gauss-Seidel reads them).
-void BM_GatherKernel(benchmark::State& state, const Problem* p) {
+void BM_GatherKernel(benchmark::State& state, const Problem* p, Kernels k) {
+  use(state, k);
   const System& sys = *p->system;
   const size_t n = sys.size();
   double out[3];
@@ -254,6 +277,7 @@ void BM_GatherKernel(benchmark::State& state, const Problem* p) {
   }
   const double s = cpu_seconds() - start;
   report(state, *p, Order::kInOrder, row, s);
+  kernels::use_vector_kernels(true);
 }
 
 // The RGB problem's matrix with half its entries zero in blocks of 64 columns (a culled or
@@ -349,13 +373,18 @@ void register_all() {
                                  Order::kInOrder);
     benchmark::RegisterBenchmark(("StreamRow/" + tag + "/scattered").c_str(), BM_StreamRow, p,
                                  Order::kScattered);
-    benchmark::RegisterBenchmark((tag + "/kernel/Gather").c_str(), BM_GatherKernel, p);
-    benchmark::RegisterBenchmark((tag + "/kernel/Shot(no selection)").c_str(), BM_ShotKernel, p,
-                                 false, false);
-    benchmark::RegisterBenchmark((tag + "/kernel/Shot(fused selection)").c_str(), BM_ShotKernel, p,
-                                 true, false);
-    benchmark::RegisterBenchmark((tag + "/kernel/Shot(fused selection, overshoot offsets)").c_str(),
-                                 BM_ShotKernel, p, true, true);
+    // The default kernels (AVX2) and AVX-512 side by side.
+    for (Kernels k : {Kernels::kDefault, Kernels::kAvx512}) {
+      const std::string end = suffix(k);
+      benchmark::RegisterBenchmark((tag + "/kernel/Gather" + end).c_str(), BM_GatherKernel, p, k);
+      benchmark::RegisterBenchmark((tag + "/kernel/Shot(no selection)" + end).c_str(),
+                                   BM_ShotKernel, p, false, false, k);
+      benchmark::RegisterBenchmark((tag + "/kernel/Shot(fused selection)" + end).c_str(),
+                                   BM_ShotKernel, p, true, false, k);
+      benchmark::RegisterBenchmark(
+          (tag + "/kernel/Shot(fused selection, overshoot offsets)" + end).c_str(), BM_ShotKernel,
+          p, true, true, k);
+    }
     struct Case {
       const char* label;
       const char* solver;
@@ -379,14 +408,20 @@ void register_all() {
         {"CGIteration", "conjugate-gradient", {}, in_order, 20},
         {"CGIteration(symmetrise)", "conjugate-gradient", {"symmetrise=true"}, in_order, 20},
     };
-    for (bool vector : {true, false})
-      for (const Case& c : cases) {
-        const std::string label = tag + "/" + c.label + (vector ? "" : "/scalar");
-        auto* b = benchmark::RegisterBenchmark(label.c_str(), BM_Step, p, c.solver, c.params,
-                                               c.order, vector);
-        if (c.iterations) b->Iterations(c.iterations);
-        b->Unit(benchmark::kMicrosecond);
-      }
+    const auto add = [&](const Case& c, Kernels k) {
+      const std::string label = tag + "/" + c.label + suffix(k);
+      auto* b =
+          benchmark::RegisterBenchmark(label.c_str(), BM_Step, p, c.solver, c.params, c.order, k);
+      if (c.iterations) b->Iterations(c.iterations);
+      b->Unit(benchmark::kMicrosecond);
+    };
+    // The default kernels (AVX2) and AVX-512 back to back, case by case, so that the two are
+    // measured in the same state of a shared machine; the scalar ones last.
+    for (const Case& c : cases) {
+      add(c, Kernels::kDefault);
+      add(c, Kernels::kAvx512);
+    }
+    for (const Case& c : cases) add(c, Kernels::kScalar);
   }
 }
 

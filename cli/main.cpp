@@ -44,7 +44,8 @@ int main(int argc, char** argv) {
   bool scalar_kernels = false;
   app.add_flag("--scalar-kernels", scalar_kernels,
                "run the solvers' portable scalar kernels instead of the AVX2 ones the CPU offers "
-               "(the same results bit for bit, slower; also RADLAB_KERNELS=scalar)");
+               "(the same results bit for bit, slower; also RADLAB_KERNELS=scalar; "
+               "RADLAB_KERNELS=avx512 runs the AVX-512 ones where the CPU has them)");
   int threads = 0;
   radlab::cli::add_threads_option(app, threads);
   // These options may also follow the subcommand.

@@ -1,8 +1,9 @@
-// The solver kernels' two instruction paths and two row forms give the same bits:
-//   - the AVX2 and the scalar versions (kernels.h: the same operations in the same order, sums
-//     in the same 16 lanes, no fused multiply-adds), for the gather, the gather-scatter and the
-//     priority scan (the shot's own comparison is in tests/shooting_test.cpp), on ranges that start
-//     and end off any vector boundary;
+// The solver kernels' three instruction paths and two row forms give the same bits:
+//   - each vector set (AVX2, AVX-512; a set the CPU lacks is reported skipped) against the scalar
+//     versions (kernels.h: the same operations in the same order, sums in the same 16 lanes, no
+//     fused multiply-adds), for the gather, the gather-scatter, the priority scan and the dense
+//     shot with every option (tests/shooting_test.cpp also checks the default set's shot against
+//     the arithmetic written out), on ranges that start and end off any vector boundary;
 //   - a sparse row's stored runs (kernels_row.h) and its dense form, for the gather and the shot
 //     (skipping a zero is exact, see kernels_row.h), kernel by kernel and through whole solver
 //     runs on a System over a dense and a sparse matrix with the same entries.
@@ -44,14 +45,30 @@ std::vector<double> row_with_gaps(size_t n, Pcg32& rng) {
   return row;
 }
 
-// Restores the vector kernels when a test ends, whatever it switched to.
-struct VectorGuard {
-  ~VectorGuard() { kernels::use_vector_kernels(true); }
+// Tests run once per vector set, each against the scalar kernels; a set this CPU lacks is
+// skipped with a message (not passed). The default kernels are restored when a test ends.
+class VectorSet : public ::testing::TestWithParam<kernels::KernelSet> {
+ protected:
+  void SetUp() override {
+    if (!kernels::kernels_available(GetParam()))
+      GTEST_SKIP() << "no " << kernels::kernel_set_name(GetParam()) << " on this CPU";
+  }
+  void TearDown() override { kernels::use_vector_kernels(true); }
+  // The scalar kernels (false) or this test's vector set (true).
+  static void use(bool vector) {
+    ASSERT_TRUE(kernels::use_kernels(vector ? GetParam() : kernels::KernelSet::kScalar));
+  }
 };
 
-TEST(KernelsDispatch, GatherAndGatherScatterScalarEqualsVector) {
-  VectorGuard guard;
-  if (!kernels::use_vector_kernels(true)) GTEST_SKIP() << "no AVX2 on this CPU";
+std::string set_name(const ::testing::TestParamInfo<kernels::KernelSet>& param) {
+  return kernels::kernel_set_name(param.param);
+}
+
+INSTANTIATE_TEST_SUITE_P(Kernels, VectorSet,
+                         ::testing::Values(kernels::KernelSet::kAvx2, kernels::KernelSet::kAvx512),
+                         set_name);
+
+TEST_P(VectorSet, GatherAndGatherScatterScalarEqualsVector) {
   Pcg32 rng(3);
   for (size_t n : {1u, 15u, 16u, 17u, 333u, 1000u}) {
     std::vector<float> Ff(n);
@@ -68,7 +85,7 @@ TEST(KernelsDispatch, GatherAndGatherScatterScalarEqualsVector) {
         for (bool clamp : {false, true}) {
           double out[2][3] = {};
           for (int vector : {0, 1}) {
-            kernels::use_vector_kernels(vector);
+            use(vector);
             if (use_float)
               kernels::gather(Ff.data(), x, out[vector], clamp);
             else
@@ -82,7 +99,7 @@ TEST(KernelsDispatch, GatherAndGatherScatterScalarEqualsVector) {
         Radiosity z[2] = {Radiosity(C, n), Radiosity(C, n)};
         for (int vector : {0, 1}) {
           for (double& v : z[vector].raw()) v = 0.5;
-          kernels::use_vector_kernels(vector);
+          use(vector);
           if (use_float)
             kernels::gather_scatter(Ff.data(), x, out[vector], z[vector], a);
           else
@@ -147,9 +164,7 @@ void expect_same(const ShotState& a, const ShotState& b, const kernels::Argmax& 
 
 // The scan for the largest priority (after gathers, and after a sparse row's shot): the same value
 // and lowest index on both paths, with ties (equal dB and areas repeated along the array).
-TEST(KernelsDispatch, MaxPriorityScalarEqualsVector) {
-  VectorGuard guard;
-  if (!kernels::use_vector_kernels(true)) GTEST_SKIP() << "no AVX2 on this CPU";
+TEST_P(VectorSet, MaxPriorityScalarEqualsVector) {
   Pcg32 rng(29);
   const size_t n = 301;
   ShotState state = random_state(n, rng);
@@ -161,9 +176,9 @@ TEST(KernelsDispatch, MaxPriorityScalarEqualsVector) {
     for (bool offsets : {false, true})
       for (auto [lo, hi] : {std::pair<size_t, size_t>{0, n}, {3, 200}, {151, n}, {5, 6}, {9, 9}}) {
         const kernels::ShotTargets t = state.targets(C, n, false, offsets);
-        kernels::use_vector_kernels(false);
+        use(false);
         const kernels::Argmax want = kernels::max_priority(lo, hi, t);
-        kernels::use_vector_kernels(true);
+        use(true);
         const kernels::Argmax got = kernels::max_priority(lo, hi, t);
         EXPECT_TRUE(same_bits(&want.value, &got.value, 1))
             << "C=" << C << " [" << lo << ", " << hi << ")";
@@ -171,11 +186,67 @@ TEST(KernelsDispatch, MaxPriorityScalarEqualsVector) {
       }
 }
 
-// A sparse matrix's row and its dense form: gather and shot, both instruction paths, every
-// option of the shot, on ranges cut inside runs and inside gaps.
-TEST(KernelsDispatch, SparseRowEqualsDenseRow) {
-  VectorGuard guard;
-  const bool have_vector = kernels::use_vector_kernels(true);
+// The dense shot, every option (channels, float or double rows, selection, coverage, offsets,
+// reflectance runs), on ranges cut off every vector and alignment boundary (the AVX-512 path
+// aligns its stores to 64 bytes and steps 16 receivers at a time, AVX2 32 bytes and 8), with a
+// tie for the largest priority planted twice in a block and across blocks.
+TEST_P(VectorSet, DenseShotScalarEqualsVector) {
+  Pcg32 rng(41);
+  const size_t n = 333;
+  std::vector<float> Ff(n);
+  std::vector<double> Fd(n);
+  for (size_t j = 0; j < n; ++j) {
+    Fd[j] = rng.next_double() * 1e-2;
+    Ff[j] = float(Fd[j]);
+  }
+  ShotState start = random_state(n, rng);
+  for (size_t j : {40u, 45u, 200u}) {  // equal, largest priorities (k = 0 below keeps them)
+    start.area[j] = 50.0;
+    for (int c = 0; c < 3; ++c) start.dB[size_t(c) * n + j] = 2.0;
+  }
+  const std::vector<kernels::ReflectanceRun> runs = {
+      {7, {0.3, 0.4, 0.5}}, {100, {0.9, 0.1, 0.2}}, {101, {0.5, 0.5, 0.5}}, {n, {0.7, 0.8, 0.6}}};
+  for (int C : {1, 3})
+    for (bool use_float : {true, false})
+      for (bool select : {false, true})
+        for (bool coverage : {false, true})
+          for (bool offsets : {false, true})
+            for (bool with_runs : {false, true})
+              for (bool zero_k : {false, true})
+                for (auto [lo, hi] : {std::pair<size_t, size_t>{0, n},
+                                      {1, n},
+                                      {3, 300},
+                                      {9, 70},
+                                      {17, 18},
+                                      {100, 333},
+                                      {5, 5}}) {
+                  ShotState a = start, b = start;
+                  const double k[3] = {zero_k ? 0.0 : 0.7, zero_k ? 0.0 : -0.3, zero_k ? 0.0 : 1.9};
+                  kernels::Argmax m[2];
+                  for (int vector : {0, 1}) {
+                    ShotState& s = vector ? b : a;
+                    kernels::ShotTargets t = s.targets(C, n, coverage, offsets);
+                    if (with_runs) {
+                      t.runs = runs.data();
+                      t.run_count = runs.size();
+                    }
+                    use(vector);
+                    m[vector] = use_float ? kernels::shoot(Ff.data(), lo, hi, k, 0.37, t, select)
+                                          : kernels::shoot(Fd.data(), lo, hi, k, 0.37, t, select);
+                  }
+                  expect_same(a, b, m[0], m[1],
+                              "C=" + std::to_string(C) + " float=" + std::to_string(use_float) +
+                                  " select=" + std::to_string(select) + " coverage=" +
+                                  std::to_string(coverage) + " offsets=" + std::to_string(offsets) +
+                                  " runs=" + std::to_string(with_runs) +
+                                  " k=0: " + std::to_string(zero_k) + " [" + std::to_string(lo) +
+                                  ", " + std::to_string(hi) + ")");
+                }
+}
+
+// A sparse matrix's row and its dense form: gather and shot, the scalar path and this vector
+// set, every option of the shot, on ranges cut inside runs and inside gaps.
+TEST_P(VectorSet, SparseRowEqualsDenseRow) {
   Pcg32 rng(17);
   const size_t n = 700;
   for (Precision precision : {Precision::kFloat, Precision::kDouble}) {
@@ -195,8 +266,7 @@ TEST(KernelsDispatch, SparseRowEqualsDenseRow) {
       ASSERT_EQ(f32 ? double(rf[j]) : rd[j], dense.at(0, j)) << "RunRow[" << j << "]";
     const ShotState start = random_state(n, rng);
     for (int vector : {0, 1}) {
-      if (vector && !have_vector) continue;
-      kernels::use_vector_kernels(vector);
+      use(vector);
       for (int C : {1, 3}) {
         Radiosity x(C, n);
         for (double& v : x.raw()) v = rng.next_double() - 0.3;
@@ -240,10 +310,9 @@ TEST(KernelsDispatch, SparseRowEqualsDenseRow) {
 // scanned) returns the lowest index among tied largest priorities wherever the ties fall: in a
 // gap before a run, in a run before a gap, in two runs, after the last run. k = 0 makes the shot
 // add +0 to every receiver, so the priorities are the ones set here and the expected index is
-// known without running any kernel. Both instruction paths, with and without reflectance runs.
-TEST(KernelsDispatch, SparseShotSelectionTakesLowestTiedIndex) {
-  VectorGuard guard;
-  const bool have_vector = kernels::use_vector_kernels(true);
+// known without running any kernel. The scalar path and this vector set, with and without
+// reflectance runs.
+TEST_P(VectorSet, SparseShotSelectionTakesLowestTiedIndex) {
   Pcg32 rng(29);
   const size_t n = 400;
   FormFactorMatrix sparse(n, Precision::kFloat, Layout::kSparse);
@@ -268,8 +337,7 @@ TEST(KernelsDispatch, SparseShotSelectionTakesLowestTiedIndex) {
   const kernels::ReflectanceRun whole{n, {0.5, 0.6, 0.7}};
   const double k[3] = {0.0, 0.0, 0.0};
   for (int vector : {0, 1}) {
-    if (vector && !have_vector) continue;
-    kernels::use_vector_kernels(vector);
+    use(vector);
     for (int C : {1, 3})
       for (bool reflectance_runs : {false, true})
         for (auto [p, q] : ties)

@@ -141,14 +141,17 @@ TEST_P(EverySolver, SameSeedSameNumbers) {
   }
 }
 
-TEST_P(EverySolver, VectorAndScalarKernelsAgreeBitForBit) {
-  if (!kernels::use_vector_kernels(true)) GTEST_SKIP() << "no AVX2 on this CPU";
+// The solver's solution after 700 steps with the kernels of `set` and with the scalar ones: the
+// same bits. A set the CPU lacks is reported skipped, not passed.
+void expect_vector_equals_scalar(const std::string& name, kernels::KernelSet set) {
+  if (!kernels::kernels_available(set))
+    GTEST_SKIP() << "no " << kernels::kernel_set_name(set) << " on this CPU";
   // n = 320 exercises full 64-element blocks, the 16-lane sums and the tails.
   auto s = setup("cornell", 4, Precision::kFloat, true);
   Radiosity with_vector, with_scalar;
   for (bool vector : {true, false}) {
-    kernels::use_vector_kernels(vector);
-    auto solver = make(GetParam());
+    ASSERT_TRUE(kernels::use_kernels(vector ? set : kernels::KernelSet::kScalar));
+    auto solver = make(name);
     solver->init(*s->system);
     for (int k = 0; k < 700; ++k)
       if (solver->step().finished) break;
@@ -156,7 +159,16 @@ TEST_P(EverySolver, VectorAndScalarKernelsAgreeBitForBit) {
   }
   kernels::use_vector_kernels(true);
   for (size_t k = 0; k < with_vector.raw().size(); ++k)
-    ASSERT_EQ(with_vector.raw()[k], with_scalar.raw()[k]) << GetParam() << " at " << k;
+    ASSERT_EQ(with_vector.raw()[k], with_scalar.raw()[k])
+        << name << " on " << kernels::kernel_set_name(set) << " at " << k;
+}
+
+TEST_P(EverySolver, Avx2AndScalarKernelsAgreeBitForBit) {
+  expect_vector_equals_scalar(GetParam(), kernels::KernelSet::kAvx2);
+}
+
+TEST_P(EverySolver, Avx512AndScalarKernelsAgreeBitForBit) {
+  expect_vector_equals_scalar(GetParam(), kernels::KernelSet::kAvx512);
 }
 
 TEST_P(EverySolver, RowsOnTheFlyAreCountedAndConverge) {

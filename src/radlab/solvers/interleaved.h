@@ -59,6 +59,10 @@ class InterleavedSolver final : public Solver {
   };
 
   void shoot_step();
+  // Prefetches what correcting member r reads (shoot_step), kMemberPrefetch members ahead.
+  static constexpr size_t kMemberPrefetch = 8;
+  template <class Row>
+  void prefetch_member(const Row& F, size_t r) const;
   void gather_step();
   void start_gathering();
   void start_shooting();

@@ -17,11 +17,11 @@
 
 #include "radlab/core/error.h"
 
-// The AVX2 versions use GCC/Clang vector extensions inside functions compiled for AVX2 only;
-// their 32-byte vector values never cross a call boundary (every helper is always_inline), so
-// GCC's note about the AVX calling convention does not apply.
+// The vector versions use GCC/Clang vector extensions inside functions compiled for AVX2 or
+// AVX-512 only; their 32- and 64-byte vector values never cross a call boundary (every helper is
+// always_inline), so GCC's note about the AVX calling convention does not apply.
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-#define RADLAB_HAVE_AVX2_KERNELS 1
+#define RADLAB_HAVE_VECTOR_KERNELS 1
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic ignored "-Wpsabi"
 #endif
@@ -31,9 +31,17 @@
 namespace radlab::kernels {
 namespace {
 
-constexpr size_t kLanes = 16;      // sums are kept in 16 lanes: lane = j mod 16
-constexpr size_t kBlock = 64;      // shots find the maximum per block of 64, then inside the block
-constexpr size_t kPrefetch = 512;  // elements ahead in the row (2 KB of floats)
+constexpr size_t kLanes = 16;  // sums are kept in 16 lanes: lane = j mod 16
+constexpr size_t kBlock = 64;  // shots find the maximum per block of 64, then inside the block
+// The vector loops prefetch the row twice: kPrefetchL2 elements ahead into L2 only (4 KB of
+// floats; PREFETCHT2), kPrefetchL1 ahead into L1 (512 bytes). With one prefetch into L1 from 2 KB
+// ahead (before), a cold row cost the hot row's time plus the raw read's, nearly without overlap;
+// the likely cause (not measured with counters) is that L1 prefetches that far ahead hold L1's
+// few miss buffers for a whole memory latency, which the shots' loads of their L2-resident state
+// (dB, 1/A, A) need too. In A/B runs the two distances took 5-35% off most gathers and shots
+// (docs/performance.md, session avx512).
+constexpr size_t kPrefetchL2 = 1024;
+constexpr size_t kPrefetchL1 = 128;
 constexpr size_t kAlignDoubles = 4;  // shots align their dB stores to 32 bytes
 
 // The one way 16 lane sums become a total, shared by both versions.
@@ -160,130 +168,10 @@ Argmax shoot_scalar(const T* F, size_t lo, size_t hi, const double* k, double co
 }
 
 // ------------------------------------------------------------------------------------------
-// AVX2 versions.
+// Vector versions: kernels_simd.inc, once for AVX2 (4 doubles a vector) and once for AVX-512
+// (8 doubles), on the primitives below.
 
-#ifdef RADLAB_HAVE_AVX2_KERNELS
-typedef double v4d __attribute__((vector_size(32)));
-typedef long long v4i __attribute__((vector_size(32)));
-
-#define RADLAB_AVX2 __attribute__((target("avx2")))
-#define RADLAB_AVX2_INLINE __attribute__((target("avx2"), always_inline)) inline
-
-RADLAB_AVX2_INLINE v4d load(const double* p) {
-  v4d v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
-RADLAB_AVX2_INLINE v4d load(const float* p) {
-  return _mm256_cvtps_pd(_mm_loadu_ps(p));
-}
-RADLAB_AVX2_INLINE void store(double* p, v4d v) {
-  std::memcpy(p, &v, sizeof v);
-}
-RADLAB_AVX2_INLINE v4d splat(double x) {
-  return v4d{x, x, x, x};
-}
-RADLAB_AVX2_INLINE v4d vabs(v4d v) {
-  constexpr long long kAllButSign = std::numeric_limits<long long>::max();
-  const v4i mask = {kAllButSign, kAllButSign, kAllButSign, kAllButSign};
-  v4i bits;
-  std::memcpy(&bits, &v, sizeof bits);
-  bits &= mask;
-  std::memcpy(&v, &bits, sizeof v);
-  return v;
-}
-// max(a, b) as MAXPD computes it: a if a > b, else b; a NaN in a is ignored, like the scalar
-// selection's `p > best`.
-RADLAB_AVX2_INLINE v4d vmax(v4d a, v4d b) {
-  return _mm256_max_pd(a, b);
-}
-// The largest of a block maximum's 4 lanes, without the libm call that std::fmax is on baseline
-// x86-64 (the three calls per block of 64 receivers were ~15% of the RGB shot's time in perf, and
-// the vector registers were spilled around them). On these lanes it is std::fmax's result exactly:
-// they start at -1 and vmax keeps them when a priority is NaN, so none is NaN, and priorities
-// (sums of |.| times an area >= 0) are never -0, so no tie between +0 and -0 can pick a sign.
-RADLAB_AVX2_INLINE double hmax(v4d v) {
-  const __m128d m = _mm_max_pd(_mm256_castpd256_pd128(v), _mm256_extractf128_pd(v, 1));
-  return _mm_cvtsd_f64(_mm_max_sd(m, _mm_unpackhi_pd(m, m)));
-}
-template <bool kClamp>
-RADLAB_AVX2_INLINE v4d vclamped(v4d v) {
-  if constexpr (kClamp) return v > splat(0.0) ? v : splat(0.0);
-  return v;
-}
-
-// gather_lanes_scalar's sums, 16 columns at a time from the first multiple of 16 in [lo, hi):
-// each lane still adds its columns in increasing order, so the lane sums are the same bits.
-template <class T, int C, bool kClamp>
-RADLAB_AVX2 void gather_lanes_avx2(const T* F, size_t lo, size_t hi, const double* const* x_in,
-                                   double (*s)[kLanes]) {
-  const double* x[C];  // local copies: the stores below may alias any memory
-  for (int c = 0; c < C; ++c) x[c] = x_in[c];
-  size_t j = lo;
-  for (; j < hi && j % kLanes != 0; ++j) {
-    const double f = double(F[j]);
-    for (int c = 0; c < C; ++c) s[c][j % kLanes] += f * clamped<kClamp>(x[c][j]);
-  }
-  if (j + kLanes <= hi) {
-    v4d acc[C][4];
-    for (int c = 0; c < C; ++c)
-      for (int q = 0; q < 4; ++q) acc[c][q] = load(&s[c][4 * q]);
-    for (; j + kLanes <= hi; j += kLanes) {
-      __builtin_prefetch(F + j + kPrefetch);
-      v4d f[4];
-      for (int q = 0; q < 4; ++q) f[q] = load(F + j + 4 * q);
-      for (int c = 0; c < C; ++c)
-        for (int q = 0; q < 4; ++q) acc[c][q] += f[q] * vclamped<kClamp>(load(x[c] + j + 4 * q));
-    }
-    for (int c = 0; c < C; ++c)
-      for (int q = 0; q < 4; ++q) store(&s[c][4 * q], acc[c][q]);
-  }
-  for (; j < hi; ++j) {
-    const double f = double(F[j]);
-    for (int c = 0; c < C; ++c) s[c][j % kLanes] += f * clamped<kClamp>(x[c][j]);
-  }
-}
-
-template <class T, int C>
-RADLAB_AVX2 void gather_scatter_avx2(const T* F, size_t n, const double* const* x_in, double* out,
-                                     double* const* z_in, const double* a) {
-  // Local copies of the channel pointers (see Lanes below).
-  const double* x[C];
-  double* z[C];
-  for (int c = 0; c < C; ++c) {
-    x[c] = x_in[c];
-    z[c] = z_in[c];
-  }
-  v4d acc[C][4];
-  v4d ak[C];
-  for (int c = 0; c < C; ++c) {
-    ak[c] = splat(a[c]);
-    for (int q = 0; q < 4; ++q) acc[c][q] = splat(0.0);
-  }
-  size_t j = 0;
-  for (; j + kLanes <= n; j += kLanes) {
-    __builtin_prefetch(F + j + kPrefetch);
-    v4d f[4];
-    for (int q = 0; q < 4; ++q) f[q] = load(F + j + 4 * q);
-    for (int c = 0; c < C; ++c)
-      for (int q = 0; q < 4; ++q) {
-        acc[c][q] += f[q] * load(x[c] + j + 4 * q);
-        store(z[c] + j + 4 * q, load(z[c] + j + 4 * q) + ak[c] * f[q]);
-      }
-  }
-  double s[C][kLanes];
-  for (int c = 0; c < C; ++c)
-    for (int q = 0; q < 4; ++q) std::memcpy(&s[c][4 * q], &acc[c][q], sizeof(v4d));
-  for (; j < n; ++j) {
-    const double f = double(F[j]);
-    for (int c = 0; c < C; ++c) {
-      s[c][j % kLanes] += f * x[c][j];
-      z[c][j] += a[c] * f;
-    }
-  }
-  for (int c = 0; c < C; ++c) out[c] = combine(s[c]);
-}
-
+#ifdef RADLAB_HAVE_VECTOR_KERNELS
 // The arrays of one shot, copied out of ShotTargets: the vector stores (memcpy) may alias any
 // memory, so pointers read through a reference would be reloaded after every store.
 template <int C>
@@ -304,128 +192,11 @@ struct Lanes {
   }
 };
 
-// Updates 4 receivers starting at j (shoot1's arithmetic, 4 lanes at once); returns their
-// priorities (if kSelect). kk[c] holds k_c * rho_c with runs, k_c without.
-template <class T, int C, bool kSelect, bool kOffset, bool kCoverage, bool kRuns>
-RADLAB_AVX2_INLINE v4d shoot4(const T* F, size_t j, const v4d* kk, v4d coverage_scale,
-                              const Lanes<C>& l) {
-  const v4d g = load(F + j) * load(l.inverse_area + j);
-  v4d p;
-  for (int c = 0; c < C; ++c) {
-    v4d k_rho;
-    if constexpr (kRuns)
-      k_rho = kk[c];
-    else
-      k_rho = kk[c] * load(l.rho[c] + j);
-    const v4d v = load(l.u[c] + j) + g * k_rho;
-    store(l.u[c] + j, v);
-    if constexpr (kSelect) {
-      v4d a;  // |dB_c (+ o_c)|
-      if constexpr (kOffset)
-        a = vabs(v + load(l.o[c] + j));
-      else
-        a = vabs(v);
-      p = c == 0 ? a : p + a;  // = 0 + |v_0| + ...
-    }
-  }
-  if constexpr (kCoverage) store(l.coverage + j, load(l.coverage + j) + g * coverage_scale);
-  if constexpr (kSelect) return p * load(l.area + j);
-  return splat(0.0);
-}
-
 // The largest priority seen so far and the first block [start, end) that holds it.
 struct BlockBest {
   double value = -1.0;
   size_t start = kNone, end = kNone;
 };
-
-// One segment [a, b) of one reflectance source, in blocks of up to 64 receivers: 8 at a time, then
-// 4, then one by one; each block's maximum is reduced once and compared with the best so far
-// (strictly greater: the first block wins ties, like the scalar loop's first index).
-template <class T, int C, bool kSelect, bool kOffset, bool kCoverage, bool kRuns>
-RADLAB_AVX2_INLINE void shoot_segment_avx2(const T* F, size_t a, size_t b, const double* k,
-                                           const double* rho_scalar, double coverage_scale,
-                                           const ShotTargets& t, const Lanes<C>& l,
-                                           BlockBest& best) {
-  double kr[3] = {0.0, 0.0, 0.0};  // k_c * rho_c of the run
-  v4d kk[C];
-  for (int c = 0; c < C; ++c) {
-    if constexpr (kRuns) kr[c] = k[c] * rho_scalar[c];
-    kk[c] = splat(kRuns ? kr[c] : k[c]);
-  }
-  const v4d cs = splat(coverage_scale);
-  // The receivers before dB_0 + j is 32-byte aligned, one by one, as a block of their own: the
-  // arrays come from malloc (16-byte aligned), and a 32-byte store that straddles two cache lines
-  // costs two; this made the RGB shot ~10% faster. (The other channels are aligned too when
-  // n is a multiple of 4.)
-  size_t j = a;
-  {
-    const size_t head = std::min(b, a + (kAlignDoubles - reinterpret_cast<uintptr_t>(l.u[0] + a) /
-                                                             sizeof(double) % kAlignDoubles) %
-                                            kAlignDoubles);
-    double mm = -1.0;
-    for (; j < head; ++j) {
-      shoot1<T, C, kCoverage, kRuns>(F, j, k, kr, coverage_scale, t);
-      if constexpr (kSelect) {
-        const double p = priority<C, kOffset>(t, j);
-        if (p > mm) mm = p;
-      }
-    }
-    if (kSelect && mm > best.value) best = {mm, a, head};
-  }
-  while (j < b) {
-    const size_t end = std::min(b, j + kBlock);
-    v4d m0 = splat(-1.0), m1 = splat(-1.0);
-    size_t q = j;
-    for (; q + 8 <= end; q += 8) {
-      __builtin_prefetch(F + q + kPrefetch);
-      const v4d p0 = shoot4<T, C, kSelect, kOffset, kCoverage, kRuns>(F, q, kk, cs, l);
-      const v4d p1 = shoot4<T, C, kSelect, kOffset, kCoverage, kRuns>(F, q + 4, kk, cs, l);
-      if constexpr (kSelect) {
-        m0 = vmax(p0, m0);
-        m1 = vmax(p1, m1);
-      }
-    }
-    if (q + 4 <= end) {
-      const v4d p0 = shoot4<T, C, kSelect, kOffset, kCoverage, kRuns>(F, q, kk, cs, l);
-      if constexpr (kSelect) m0 = vmax(p0, m0);
-      q += 4;
-    }
-    double mm = -1.0;
-    if constexpr (kSelect) {
-      mm = hmax(vmax(m0, m1));
-    }
-    for (; q < end; ++q) {
-      shoot1<T, C, kCoverage, kRuns>(F, q, k, kr, coverage_scale, t);
-      if constexpr (kSelect) {
-        const double p = priority<C, kOffset>(t, q);
-        if (p > mm) mm = p;
-      }
-    }
-    if (kSelect && mm > best.value) best = {mm, j, end};
-    j = end;
-  }
-}
-
-// The shot over [lo, hi), each piece of one reflectance source in turn, its maxima folded into
-// `block`.
-template <class T, int C, bool kSelect, bool kOffset, bool kCoverage, bool kRuns>
-RADLAB_AVX2_INLINE void shoot_range_avx2(const T* F, size_t lo, size_t hi, const double* k,
-                                         double coverage_scale, const ShotTargets& t,
-                                         const Lanes<C>& l, BlockBest& block) {
-  // for_each_segment written out: a lambda would not be compiled for AVX2.
-  if constexpr (kRuns) {
-    for (const ReflectanceRun* run = first_run(t, lo); lo < hi; ++run) {
-      const size_t b = std::min(hi, run->end);
-      shoot_segment_avx2<T, C, kSelect, kOffset, kCoverage, true>(F, lo, b, k, run->rho,
-                                                                  coverage_scale, t, l, block);
-      lo = b;
-    }
-  } else {
-    shoot_segment_avx2<T, C, kSelect, kOffset, kCoverage, false>(F, lo, hi, k, nullptr,
-                                                                 coverage_scale, t, l, block);
-  }
-}
 
 // The first element of the block holding the largest priority (block.value): the selection's
 // index, found once at the end of a pass rather than per block.
@@ -437,117 +208,179 @@ Argmax first_in_block(const BlockBest& block, const ShotTargets& t) {
   return {};
 }
 
-template <class T, int C, bool kSelect, bool kOffset, bool kCoverage, bool kRuns>
-RADLAB_AVX2 Argmax shoot_avx2(const T* F, size_t lo, size_t hi, const double* k,
-                              double coverage_scale, const ShotTargets& t) {
-  const Lanes<C> l(t);
-  BlockBest block;
-  shoot_range_avx2<T, C, kSelect, kOffset, kCoverage, kRuns>(F, lo, hi, k, coverage_scale, t, l,
-                                                             block);
-  if constexpr (kSelect) return first_in_block<C, kOffset>(block, t);
-  return {};
+namespace avx2 {
+
+typedef double V __attribute__((vector_size(32)));
+typedef long long VI __attribute__((vector_size(32)));
+constexpr size_t kWidth = 4;
+
+#define RADLAB_SIMD __attribute__((target("avx2")))
+#define RADLAB_SIMD_INLINE __attribute__((target("avx2"), always_inline)) inline
+
+RADLAB_SIMD_INLINE V load(const double* p) {
+  V v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
 }
-// The priorities of 4 elements from q, as priority<C, kOffset> forms them (the leading 0 + is
-// exact: |v| >= +0).
-template <int C, bool kOffset>
-RADLAB_AVX2_INLINE v4d priority4(size_t q, const Lanes<C>& l) {
-  v4d p;
-  for (int c = 0; c < C; ++c) {
-    v4d a;
-    if constexpr (kOffset)
-      a = vabs(load(l.u[c] + q) + load(l.o[c] + q));
-    else
-      a = vabs(load(l.u[c] + q));
-    p = c == 0 ? a : p + a;
-  }
-  return p * load(l.area + q);
+RADLAB_SIMD_INLINE V load(const float* p) {
+  return _mm256_cvtps_pd(_mm_loadu_ps(p));
+}
+RADLAB_SIMD_INLINE void store(double* p, V v) {
+  std::memcpy(p, &v, sizeof v);
+}
+RADLAB_SIMD_INLINE V splat(double x) {
+  return V{x, x, x, x};
+}
+RADLAB_SIMD_INLINE V vabs(V v) {
+  constexpr long long kAllButSign = std::numeric_limits<long long>::max();
+  VI bits;
+  std::memcpy(&bits, &v, sizeof bits);
+  bits &= kAllButSign;
+  std::memcpy(&v, &bits, sizeof v);
+  return v;
+}
+// max(a, b) as MAXPD computes it: a if a > b, else b; a NaN in a is ignored, like the scalar
+// selection's `p > best`.
+RADLAB_SIMD_INLINE V vmax(V a, V b) {
+  return _mm256_max_pd(a, b);
+}
+// The largest of a block maximum's 4 lanes, without the libm call that std::fmax is on baseline
+// x86-64 (the three calls per block of 64 receivers were ~15% of the RGB shot's time in perf, and
+// the vector registers were spilled around them). On these lanes it is std::fmax's result exactly:
+// they start at -1 and vmax keeps them when a priority is NaN, so none is NaN, and priorities
+// (sums of |.| times an area >= 0) are never -0, so no tie between +0 and -0 can pick a sign.
+RADLAB_SIMD_INLINE double hmax(V v) {
+  const __m128d m = _mm_max_pd(_mm256_castpd256_pd128(v), _mm256_extractf128_pd(v, 1));
+  return _mm_cvtsd_f64(_mm_max_sd(m, _mm_unpackhi_pd(m, m)));
+}
+template <bool kClamp>
+RADLAB_SIMD_INLINE V vclamped(V v) {
+  if constexpr (kClamp) return v > splat(0.0) ? v : splat(0.0);
+  return v;
 }
 
-// The priorities of [lo, hi) by blocks of 64 as the shot finds them: each block's maximum, folded
-// into `block` (strictly greater: the first block holding the largest wins).
-template <int C, bool kOffset>
-RADLAB_AVX2_INLINE void scan_priority_avx2(size_t lo, size_t hi, const ShotTargets& t,
-                                           const Lanes<C>& l, BlockBest& block) {
-  for (size_t j = lo; j < hi;) {
-    const size_t end = std::min(hi, j + kBlock);
-    v4d m0 = splat(-1.0), m1 = splat(-1.0);
-    size_t q = j;
-    for (; q + 8 <= end; q += 8) {
-      m0 = vmax(priority4<C, kOffset>(q, l), m0);
-      m1 = vmax(priority4<C, kOffset>(q + 4, l), m1);
-    }
-    if (q + 4 <= end) {
-      m0 = vmax(priority4<C, kOffset>(q, l), m0);
-      q += 4;
-    }
-    double mm = hmax(vmax(m0, m1));
-    for (; q < end; ++q) {
-      const double p = priority<C, kOffset>(t, q);
-      if (p > mm) mm = p;
-    }
-    if (mm > block.value) block = {mm, j, end};
-    j = end;
-  }
+#include "radlab/solvers/kernels_simd.inc"
+
+#undef RADLAB_SIMD
+#undef RADLAB_SIMD_INLINE
+}  // namespace avx2
+
+namespace avx512 {
+
+typedef double V __attribute__((vector_size(64)));
+typedef long long VI __attribute__((vector_size(64)));
+constexpr size_t kWidth = 8;
+
+// AVX-512 F for the 512-bit arithmetic; VL, DQ and BW (every AVX-512 CPU since Skylake-X has
+// them) let the compiler use the 32 vector registers and masks on the 256- and 128-bit code too.
+#define RADLAB_SIMD __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw")))
+#define RADLAB_SIMD_INLINE \
+  __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"), always_inline)) inline
+
+RADLAB_SIMD_INLINE V load(const double* p) {
+  V v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+// The zero-masked intrinsics with every lane selected, here and in hmax: the plain ones pass an
+// undefined source operand that GCC 12 warns "may be used uninitialized" (and
+// __builtin_convertvector converted in two halves).
+constexpr __mmask8 kAll = 0xff;
+RADLAB_SIMD_INLINE V load(const float* p) {
+  return _mm512_maskz_cvtps_pd(kAll, _mm256_loadu_ps(p));
+}
+RADLAB_SIMD_INLINE void store(double* p, V v) {
+  std::memcpy(p, &v, sizeof v);
+}
+RADLAB_SIMD_INLINE V splat(double x) {
+  return V{x, x, x, x, x, x, x, x};
+}
+RADLAB_SIMD_INLINE V vabs(V v) {
+  constexpr long long kAllButSign = std::numeric_limits<long long>::max();
+  VI bits;
+  std::memcpy(&bits, &v, sizeof bits);
+  bits &= kAllButSign;
+  std::memcpy(&v, &bits, sizeof v);
+  return v;
+}
+// MAXPD's rule, as avx2::vmax: a if a > b, else b (so a NaN in a is ignored).
+RADLAB_SIMD_INLINE V vmax(V a, V b) {
+  return a > b ? a : b;
+}
+// The largest of 8 lanes: the two halves' maximum, then avx2::hmax's reduction (the same
+// argument: no lane is NaN or -0, so any order gives std::fmax's result).
+RADLAB_SIMD_INLINE double hmax(V v) {
+  const __m256d h = _mm256_max_pd(_mm512_maskz_extractf64x4_pd(kAll, v, 0),
+                                  _mm512_maskz_extractf64x4_pd(kAll, v, 1));
+  const __m128d m = _mm_max_pd(_mm256_castpd256_pd128(h), _mm256_extractf128_pd(h, 1));
+  return _mm_cvtsd_f64(_mm_max_sd(m, _mm_unpackhi_pd(m, m)));
+}
+template <bool kClamp>
+RADLAB_SIMD_INLINE V vclamped(V v) {
+  if constexpr (kClamp) return v > splat(0.0) ? v : splat(0.0);
+  return v;
 }
 
-// max_priority_scan's result (the largest priority, its lowest index): the blocks' maxima, then
-// the first index of the first block holding the largest.
-template <int C, bool kOffset>
-RADLAB_AVX2 Argmax max_priority_avx2(size_t lo, size_t hi, const ShotTargets& t) {
-  const Lanes<C> l(t);
-  BlockBest block;
-  scan_priority_avx2<C, kOffset>(lo, hi, t, l, block);
-  return first_in_block<C, kOffset>(block, t);
-}
+#include "radlab/solvers/kernels_simd.inc"
 
-// A sparse row's shot with the selection fused in (shoot_sparse below): in column order, each
-// gap between stored runs is only scanned for its priorities, each run is shot with its
-// priorities taken in the same pass, and one BlockBest runs through all of them, so the index
-// is searched for once, in one block, at the end. The largest priority over [lo, hi) and its
-// lowest index do not depend on how the range is cut, so this is max_priority's result after
-// the shot (the same bits as the dense pass's selection).
-template <class T, int C, bool kOffset, bool kCoverage, bool kRuns>
-RADLAB_AVX2 Argmax shoot_sparse_select_avx2(const RunRow<T>& F, size_t lo, size_t hi,
-                                            const double* k, double coverage_scale,
-                                            const ShotTargets& t) {
-  const Lanes<C> l(t);
-  BlockBest block;
-  size_t cursor = lo;  // columns before it are done
-  for (size_t r = 0; r < F.runs; ++r) {
-    const size_t first = F.first(r);
-    if (first >= hi) break;
-    const size_t a = std::max(first, lo), b = std::min(first + F.count(r), hi);
-    if (a >= b) continue;
-    scan_priority_avx2<C, kOffset>(cursor, a, t, l, block);
-    shoot_range_avx2<T, C, true, kOffset, kCoverage, kRuns>(
-        column_origin(F.value + F.begin(r), first), a, b, k, coverage_scale, t, l, block);
-    cursor = b;
-  }
-  scan_priority_avx2<C, kOffset>(cursor, hi, t, l, block);
-  return first_in_block<C, kOffset>(block, t);
-}
-#endif  // RADLAB_HAVE_AVX2_KERNELS
+#undef RADLAB_SIMD
+#undef RADLAB_SIMD_INLINE
+}  // namespace avx512
+#endif  // RADLAB_HAVE_VECTOR_KERNELS
 
-bool detect_avx2() {
-#ifdef RADLAB_HAVE_AVX2_KERNELS
+// What the CPU runs (the build targets baseline x86-64; the choice is made at run time).
+bool cpu_has(KernelSet set) {
+#ifdef RADLAB_HAVE_VECTOR_KERNELS
   __builtin_cpu_init();
-  return __builtin_cpu_supports("avx2");
-#else
+  switch (set) {
+    case KernelSet::kScalar:
+      return true;
+    case KernelSet::kAvx2:
+      return __builtin_cpu_supports("avx2");
+    case KernelSet::kAvx512:
+      return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
+             __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512bw");
+  }
   return false;
+#else
+  return set == KernelSet::kScalar;
 #endif
 }
 
-// RADLAB_KERNELS: "scalar" forces the scalar versions; unset, empty or "auto" leaves the choice
-// to the CPU. Anything else is refused (check_kernel_environment) rather than ignored.
+// The widest set the CPU runs, no wider than `limit`.
+KernelSet best_up_to(KernelSet limit) {
+  for (KernelSet set : {KernelSet::kAvx512, KernelSet::kAvx2})
+    if (set <= limit && cpu_has(set)) return set;
+  return KernelSet::kScalar;
+}
+
+// RADLAB_KERNELS: "scalar" forces the scalar versions, "avx512" asks for AVX-512 where the CPU
+// has it, "avx2" for AVX2; unset, empty or "auto" is AVX2 where the CPU has it. Anything else is
+// refused (check_kernel_environment) rather than ignored.
 const char* kernel_environment() {
   const char* value = std::getenv("RADLAB_KERNELS");
   return value ? value : "";
 }
 
-std::atomic<bool>& vector_enabled() {
-  static std::atomic<bool> enabled{detect_avx2() &&
-                                   std::strcmp(kernel_environment(), "scalar") != 0};
-  return enabled;
+// The vector set used by default: AVX2 even where AVX-512 is there. On the AMD EPYC (Zen 4) these
+// kernels were measured on, the AVX-512 versions were nowhere clearly faster and up to 17% slower
+// (the grey shots, the RGB gather; docs/performance.md, session avx512): Zen 4 executes a 512-bit
+// operation as two 256-bit halves, and these loops are bound by the L2-resident state they move,
+// not by their instruction count. RADLAB_KERNELS=avx512 selects them (for CPUs with full-width
+// AVX-512 units, where that may differ: not measured).
+KernelSet default_vector_set() {
+  return best_up_to(std::string(kernel_environment()) == "avx512" ? KernelSet::kAvx512
+                                                                  : KernelSet::kAvx2);
+}
+
+std::atomic<KernelSet>& active_set() {
+  static std::atomic<KernelSet> set{
+      std::string(kernel_environment()) == "scalar" ? KernelSet::kScalar : default_vector_set()};
+  return set;
+}
+
+KernelSet active() {
+  return active_set().load(std::memory_order_relaxed);
 }
 
 // ------------------------------------------------------------------------------------------
@@ -570,17 +403,14 @@ void for_each_stored(const RunRow<T>& F, size_t, Fn&& lanes) {
 template <int C, bool kClamp, class Row>
 void gather_channels(const Row& F, size_t n, const double* const* x, double* out) {
   double s[C][kLanes] = {};
-#ifdef RADLAB_HAVE_AVX2_KERNELS
-  if (vector_enabled().load(std::memory_order_relaxed)) {
-    for_each_stored(F, n, [&](const auto* row, size_t lo, size_t hi) {
-      gather_lanes_avx2<std::remove_cvref_t<decltype(*row)>, C, kClamp>(row, lo, hi, x, s);
-    });
-    for (int c = 0; c < C; ++c) out[c] = combine(s[c]);
-    return;
-  }
-#endif
+  const KernelSet set = active();
   for_each_stored(F, n, [&](const auto* row, size_t lo, size_t hi) {
-    gather_lanes_scalar<std::remove_cvref_t<decltype(*row)>, C, kClamp>(row, lo, hi, x, s);
+    using T = std::remove_cvref_t<decltype(*row)>;
+#ifdef RADLAB_HAVE_VECTOR_KERNELS
+    if (set == KernelSet::kAvx512) return avx512::gather_lanes<T, C, kClamp>(row, lo, hi, x, s);
+    if (set == KernelSet::kAvx2) return avx2::gather_lanes<T, C, kClamp>(row, lo, hi, x, s);
+#endif
+    gather_lanes_scalar<T, C, kClamp>(row, lo, hi, x, s);
   });
   for (int c = 0; c < C; ++c) out[c] = combine(s[c]);
 }
@@ -608,10 +438,16 @@ void gather_scatter_dispatch(const T* F, const Radiosity& x, double* out, Radios
       xp[c] = x.channel(c).data();
       zp[c] = z.channel(c).data();
     }
-#ifdef RADLAB_HAVE_AVX2_KERNELS
-  if (vector_enabled().load(std::memory_order_relaxed)) {
-    if (x.channels() == 1) return gather_scatter_avx2<T, 1>(F, n, xp, out, zp, a);
-    return gather_scatter_avx2<T, 3>(F, n, xp, out, zp, a);
+#ifdef RADLAB_HAVE_VECTOR_KERNELS
+  switch (active()) {
+    case KernelSet::kAvx512:
+      if (x.channels() == 1) return avx512::gather_scatter<T, 1>(F, n, xp, out, zp, a);
+      return avx512::gather_scatter<T, 3>(F, n, xp, out, zp, a);
+    case KernelSet::kAvx2:
+      if (x.channels() == 1) return avx2::gather_scatter<T, 1>(F, n, xp, out, zp, a);
+      return avx2::gather_scatter<T, 3>(F, n, xp, out, zp, a);
+    case KernelSet::kScalar:
+      break;
   }
 #endif
   if (x.channels() == 1) return gather_scatter_scalar<T, 1>(F, n, xp, out, zp, a);
@@ -621,9 +457,15 @@ void gather_scatter_dispatch(const T* F, const Radiosity& x, double* out, Radios
 template <class T, int C, bool kSelect, bool kOffset, bool kCoverage, bool kRuns>
 Argmax shoot_isa(const T* F, size_t lo, size_t hi, const double* k, double cs,
                  const ShotTargets& t) {
-#ifdef RADLAB_HAVE_AVX2_KERNELS
-  if (vector_enabled().load(std::memory_order_relaxed))
-    return shoot_avx2<T, C, kSelect, kOffset, kCoverage, kRuns>(F, lo, hi, k, cs, t);
+#ifdef RADLAB_HAVE_VECTOR_KERNELS
+  switch (active()) {
+    case KernelSet::kAvx512:
+      return avx512::shoot<T, C, kSelect, kOffset, kCoverage, kRuns>(F, lo, hi, k, cs, t);
+    case KernelSet::kAvx2:
+      return avx2::shoot<T, C, kSelect, kOffset, kCoverage, kRuns>(F, lo, hi, k, cs, t);
+    case KernelSet::kScalar:
+      break;
+  }
 #endif
   return shoot_scalar<T, C, kSelect, kOffset, kCoverage, kRuns>(F, lo, hi, k, cs, t);
 }
@@ -690,9 +532,9 @@ Argmax shoot_dispatch(const T* F, size_t lo, size_t hi, const double* k, double 
   return result;
 }
 
-// The scalar form of shoot_sparse_select_avx2: the gaps' priorities scanned, the runs shot with
-// their selection fused, the pieces' maxima combined in column order with a strict `>` (the
-// lowest index of the largest priority, as one scan of [lo, hi) would find it).
+// The scalar form of kernels_simd.inc's shoot_sparse_select: the gaps' priorities scanned, the runs
+// shot with their selection fused, the pieces' maxima combined in column order with a strict `>`
+// (the lowest index of the largest priority, as one scan of [lo, hi) would find it).
 template <class T, int C, bool kOffset, bool kCoverage, bool kRuns>
 Argmax shoot_sparse_select_scalar(const RunRow<T>& F, size_t lo, size_t hi, const double* k,
                                   double cs, const ShotTargets& t) {
@@ -722,9 +564,15 @@ Argmax shoot_sparse_select_scalar(const RunRow<T>& F, size_t lo, size_t hi, cons
 template <class T, int C, bool kOffset, bool kCoverage, bool kRuns>
 Argmax shoot_sparse_select_isa(const RunRow<T>& F, size_t lo, size_t hi, const double* k, double cs,
                                const ShotTargets& t) {
-#ifdef RADLAB_HAVE_AVX2_KERNELS
-  if (vector_enabled().load(std::memory_order_relaxed))
-    return shoot_sparse_select_avx2<T, C, kOffset, kCoverage, kRuns>(F, lo, hi, k, cs, t);
+#ifdef RADLAB_HAVE_VECTOR_KERNELS
+  switch (active()) {
+    case KernelSet::kAvx512:
+      return avx512::shoot_sparse_select<T, C, kOffset, kCoverage, kRuns>(F, lo, hi, k, cs, t);
+    case KernelSet::kAvx2:
+      return avx2::shoot_sparse_select<T, C, kOffset, kCoverage, kRuns>(F, lo, hi, k, cs, t);
+    case KernelSet::kScalar:
+      break;
+  }
 #endif
   return shoot_sparse_select_scalar<T, C, kOffset, kCoverage, kRuns>(F, lo, hi, k, cs, t);
 }
@@ -742,10 +590,10 @@ Argmax shoot_sparse_select_flags(const RunRow<T>& F, size_t lo, size_t hi, const
 // A shot on a sparse row's stored runs: each run's receivers get the dense kernel's arithmetic
 // (so the same bits); the receivers in the gaps would get exactly nothing (kernels_row.h) and are
 // not touched. With select, the selection is fused into the same pass
-// (shoot_sparse_select_avx2): the runs' receivers are ranked while they are updated and only the
-// gaps are read again. (The version before this one shot the runs and then scanned all of
-// [lo, hi): on rows of 64-column runs, 7% slower than shooting the expanded dense row.) Rows long
-// enough for the parallel split (set_parallel_shot_minimum) shoot each run through it and scan
+// (kernels_simd.inc's shoot_sparse_select): the runs' receivers are ranked while they are updated
+// and only the gaps are read again. (The version before this one shot the runs and then scanned all
+// of [lo, hi): on rows of 64-column runs, 7% slower than shooting the expanded dense row.) Rows
+// long enough for the parallel split (set_parallel_shot_minimum) shoot each run through it and scan
 // afterwards: the same result.
 template <class T>
 Argmax shoot_sparse(const RunRow<T>& F, size_t lo, size_t hi, const double* k, double cs,
@@ -828,13 +676,22 @@ Argmax max_priority_scan(size_t lo, size_t hi, const ShotTargets& t) {
 }  // namespace
 
 Argmax max_priority(size_t lo, size_t hi, const ShotTargets& t) {
-#ifdef RADLAB_HAVE_AVX2_KERNELS
-  if (vector_enabled().load(std::memory_order_relaxed)) {
-    if (t.offset[0])
-      return t.channels == 1 ? max_priority_avx2<1, true>(lo, hi, t)
-                             : max_priority_avx2<3, true>(lo, hi, t);
-    return t.channels == 1 ? max_priority_avx2<1, false>(lo, hi, t)
-                           : max_priority_avx2<3, false>(lo, hi, t);
+#ifdef RADLAB_HAVE_VECTOR_KERNELS
+  switch (active()) {
+    case KernelSet::kAvx512:
+      if (t.offset[0])
+        return t.channels == 1 ? avx512::max_priority<1, true>(lo, hi, t)
+                               : avx512::max_priority<3, true>(lo, hi, t);
+      return t.channels == 1 ? avx512::max_priority<1, false>(lo, hi, t)
+                             : avx512::max_priority<3, false>(lo, hi, t);
+    case KernelSet::kAvx2:
+      if (t.offset[0])
+        return t.channels == 1 ? avx2::max_priority<1, true>(lo, hi, t)
+                               : avx2::max_priority<3, true>(lo, hi, t);
+      return t.channels == 1 ? avx2::max_priority<1, false>(lo, hi, t)
+                             : avx2::max_priority<3, false>(lo, hi, t);
+    case KernelSet::kScalar:
+      break;
   }
 #endif
   if (t.offset[0])
@@ -860,20 +717,49 @@ size_t set_parallel_shot_minimum(size_t receivers) {
   return parallel_minimum().exchange(receivers);
 }
 
+bool kernels_available(KernelSet set) {
+  return cpu_has(set);
+}
+
+bool use_kernels(KernelSet set) {
+  if (!cpu_has(set)) return false;
+  active_set().store(set);
+  return true;
+}
+
+KernelSet kernels_in_use() {
+  return active_set().load();
+}
+
+const char* kernel_set_name(KernelSet set) {
+  switch (set) {
+    case KernelSet::kScalar:
+      return "scalar";
+    case KernelSet::kAvx2:
+      return "avx2";
+    case KernelSet::kAvx512:
+      return "avx512";
+  }
+  return "?";
+}
+
 bool vector_kernels() {
-  return vector_enabled().load();
+  return kernels_in_use() != KernelSet::kScalar;
 }
 
 void check_kernel_environment() {
   const std::string value = kernel_environment();
-  if (!value.empty() && value != "auto" && value != "scalar")
-    throw UsageError("RADLAB_KERNELS must be 'scalar' or 'auto' (or unset), got '" + value + "'");
+  if (!value.empty() && value != "auto" && value != "scalar" && value != "avx2" &&
+      value != "avx512")
+    throw UsageError(
+        "RADLAB_KERNELS must be 'scalar', 'avx2', 'avx512' or 'auto' (or unset), got '" + value +
+        "'");
 }
 
 bool use_vector_kernels(bool enable) {
-  const bool available = detect_avx2();
-  vector_enabled().store(enable && available);
-  return enable && available;
+  const KernelSet set = enable ? default_vector_set() : KernelSet::kScalar;
+  active_set().store(set);
+  return set != KernelSet::kScalar;
 }
 
 }  // namespace radlab::kernels

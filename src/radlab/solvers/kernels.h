@@ -1,12 +1,13 @@
 // Inner loops shared by the solvers, for rows of F stored as float or double. Accumulation is
 // always in double (DESIGN §2: all-float shooting stalls at rho near 1).
 //
-// Every kernel has a portable scalar version and, on x86-64, an AVX2 version chosen at run time
-// (the build targets baseline x86-64, where the scalar loops run 2-4x slower than the vector
-// ones; bench/bench_solvers.cpp measures both). The AVX2 versions reproduce the scalar arithmetic
+// Every kernel has a portable scalar version and, on x86-64, an AVX2 and an AVX-512 version, one
+// of the three chosen at run time (the build targets baseline x86-64, where the scalar loops run
+// 2-4x slower than the vector ones; bench/bench_solvers.cpp measures all three). The vector
+// versions (kernels_simd.inc, written once for both widths) reproduce the scalar arithmetic
 // exactly: the same operations in the same order, sums kept in the same 16 lanes and combined by
 // the same tree, no fused multiply-adds. Results are therefore bit-identical on every x86-64
-// machine, and a test checks it.
+// machine whatever it runs, and tests check it.
 #pragma once
 
 #include <cstddef>
@@ -103,13 +104,29 @@ Argmax max_priority(size_t lo, size_t hi, const ShotTargets& targets);
 // out[c] = sum_j A[j] * dB_c[j] (the unshot power); with clamp_negative only positive dB counts.
 void unshot_power(const ShotTargets& targets, size_t n, bool clamp_negative, double* out);
 
-// Chooses the AVX2 versions (the default where the CPU has AVX2, unless the environment variable
-// RADLAB_KERNELS is "scalar" at start-up) or the scalar ones. For tests, benchmarks and
-// `radlab --scalar-kernels`; returns whether the vector versions are now in use.
+// The instruction sets the kernels come in, narrowest first. The default is AVX2 where the CPU
+// has it (__builtin_cpu_supports, at start-up), even where AVX-512 is there: on the Zen 4 CPU
+// they were measured on, the AVX-512 versions were nowhere clearly faster (docs/performance.md).
+// The environment variable RADLAB_KERNELS chooses otherwise: "scalar" forces the scalar
+// versions, "avx512" asks for AVX-512 (where the CPU has it), "avx2", "auto" or nothing the
+// default. Every set gives the same bits.
+enum class KernelSet { kScalar, kAvx2, kAvx512 };
+// Whether this build and CPU can run `set` (kScalar: always).
+bool kernels_available(KernelSet set);
+// Uses `set` from now on, in the whole process; false (nothing changed) where the CPU lacks it.
+// For tests and benchmarks.
+bool use_kernels(KernelSet set);
+KernelSet kernels_in_use();
+// "scalar", "avx2", "avx512".
+const char* kernel_set_name(KernelSet set);
+// Chooses the default vector set (above: AVX2, or AVX-512 with RADLAB_KERNELS=avx512), or with
+// false the scalar ones (`radlab --scalar-kernels`); returns whether vector versions are now in
+// use.
 bool use_vector_kernels(bool enable);
-// Whether the AVX2 versions are in use.
+// Whether a vector set (AVX2 or AVX-512) is in use.
 bool vector_kernels();
-// Throws UsageError when RADLAB_KERNELS holds anything but "scalar", "auto" or nothing.
+// Throws UsageError when RADLAB_KERNELS holds anything but "scalar", "avx2", "avx512", "auto" or
+// nothing.
 void check_kernel_environment();
 
 }  // namespace radlab::kernels

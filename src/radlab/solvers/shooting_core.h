@@ -28,6 +28,7 @@
 // shoots s itself, so one element per patch reproduces the one-level shots bit for bit.
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 #include <vector>
 
@@ -88,6 +89,21 @@ class ShootingCore {
     dB_.at(c, j) += v;
     if (float_) dB_.at(c, j) = double(float(dB_.at(c, j)));
     dirty_ = true;
+  }
+  // add_unshot(c, j, v[c]) for every channel, then priority(j), for element j of a one-level
+  // System: the same bits, formed from the values just stored rather than read back, and inline
+  // (interleaved's corrections call it once per member of a session, where the out-of-line
+  // priority() was as costly as the shot kernel itself).
+  double add_unshot_priority(size_t j, const double* v) {
+    double p = 0.0;
+    for (int c = 0; c < channels(); ++c) {
+      double& u = dB_.at(c, j);
+      u += v[c];
+      if (float_) u = double(float(u));
+      p += std::fabs(offset_ ? u + offset_->at(c, j) : u);
+    }
+    dirty_ = true;
+    return p * system_->area()[j];
   }
 
   // Float storage of x and dB (Wu & Wang 2002 §4 blame part of their pure-shooting curves'
