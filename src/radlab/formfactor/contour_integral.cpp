@@ -48,10 +48,10 @@ struct Edge {
 
 // ∫ ln sqrt(τ² + h²) dτ, with h >= 0 (0 at τ = 0, where τ ln|τ| -> 0).
 double log_distance_antiderivative(double tau, double h) {
-  if (tau == 0.0) return 0.0;
+  const double square = tau * tau + h * h;
+  if (tau == 0.0 || square == 0.0) return 0.0;  // (an underflowing square: |τ| < 1e-154)
   // atan2(τ, h) = sign(τ) atan2(|τ|, h): the inline upper half-plane atan2 (fast_atan.h).
-  return 0.5 * tau * std::log(tau * tau + h * h) - tau +
-         h * std::copysign(atan2_upper(std::abs(tau), h), tau);
+  return 0.5 * tau * std::log(square) - tau + h * std::copysign(atan2_upper(std::abs(tau), h), tau);
 }
 
 // Φ with Φ'' = ln|z|, Φ(0) = 0: z² ln|z| / 2 - 3 z² / 4.
