@@ -48,6 +48,12 @@ ContourIntegral contour_form_factor(std::span<const Vec3> i, const Vec3& normal_
                                     std::span<const Vec3> j, const Vec3& normal_j, double area_i,
                                     double relative_tolerance, long long max_evaluations);
 
+// Callers (raycast, exact) integrate a pair started from one cell by the adaptive area rule while
+// it is cheap, and pass it to the contour integral only once the area rule has spent this many
+// evaluations without finishing (touching and near pairs, tight tolerances): the area rule needs
+// fewer points than the contour integral on pairs it finishes early.
+inline constexpr long long kAreaRuleFirst = 4096;
+
 // The same for `from`, the part of i in front of j's plane, and the corners `to` of j, which is
 // clipped here to the front of i's plane (through point_i, with unit normal normal_i; up to
 // `epsilon`, as clip_to_front): F^u_ij as raycast and exact define it. Not converged (and 0) when

@@ -31,9 +31,6 @@ constexpr long long kUnoccludedEvaluations = 20000000;
 // The contour integral's cap for a near pair (outer points; a pair of 16-gons starts from
 // ~4,000, and at 1e-10 most pairs converge within a few times that).
 constexpr long long kContourEvaluations = 400000;
-// The area rule's work on a pair before the contour integral takes over (it stops at most one
-// split of 144 evaluations beyond it).
-constexpr long long kAreaFirst = 4096;
 
 ExactOptions ExactOptions::from(ParamBag& bag) {
   ExactOptions o;
@@ -305,18 +302,19 @@ double ExactFormFactors::unoccluded(size_t i, size_t j, std::span<const Vec3> fr
       if (std::abs(high - low) <= options_.tolerance * std::abs(high)) return kept * high;
     }
   }
-  // Absolute floor 1e-16 of F_ij (per unit area, shrinking 4x per level; divided by `kept`
-  // because the integral over the kept part is scaled by it): only cells whose whole contribution
-  // is below double rounding stop on it.
-  // The area rule first, while it is cheap (kAreaFirst); where it is not (touching and near
+  // The area rule first, while it is cheap (kAreaRuleFirst); where it is not (touching and near
   // pairs at tight tolerances), the contour integral (contour_integral.h: one-dimensional, its
   // cost grows with the logarithm of the tolerance), within `tolerance` with its rounding floor
   // in its stated error; the area rule to its full cap where that does not converge either.
+  // Absolute floor 1e-16 of F_ij (per unit area, shrinking 4x per level; divided by `kept`
+  // because the integral over the kept part is scaled by it): only cells whose whole contribution
+  // is below double rounding stop on it.
   long long evaluations = 0;
   double estimated = 0.0;
-  double f = polygon_integral_adaptive(a, b, nullptr, options_.tolerance, 1e-16 / kept,
-                                       options_.max_depth, &evaluations, kAreaFirst, &estimated);
-  if (evaluations >= kAreaFirst) {
+  double f =
+      polygon_integral_adaptive(a, b, nullptr, options_.tolerance, 1e-16 / kept, options_.max_depth,
+                                &evaluations, kAreaRuleFirst, &estimated);
+  if (evaluations >= kAreaRuleFirst) {
     cost.kernel_evaluations += uint64_t(evaluations);
     const ContourIntegral c = contour_form_factor_front(
         from, mesh_.centroid[i], mesh_.normal[i], to, mesh_.normal[j], mesh_.area[i],

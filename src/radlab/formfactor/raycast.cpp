@@ -35,9 +35,6 @@ constexpr double kSplitTolerance = 0.25;
 // (a pair of 16-gons starts from ~4,000).
 constexpr double kContourTolerance = 0.25;
 constexpr long long kContourEvaluations = 200000;
-// The area rule's work on a pair started from one cell before the contour integral takes over
-// (checked before each split of 144 evaluations, so the rule stops at most that far beyond it).
-constexpr long long kAreaFirst = 4096;
 // A thin i (longer than kThinStart times the larger of its width and j's shortest edge) starts
 // from at most kMaxStrips strips across its length, and a close pair from at most kMaxPieces
 // triangles in all (unoccluded_over).
@@ -271,11 +268,11 @@ double RaycastFormFactors::unoccluded_over(size_t i, size_t j, RowCost& cost, do
                                             depth, &evaluations, kAdaptiveEvaluations, &estimated,
                                             /*split_every_root=*/split >= 4);
   } else {
-    // A pair started from one cell: the area rule first, while it is cheap (it converges within
-    // kAreaFirst on most such pairs); the contour integral where it is not.
+    // A pair started from one cell: the area rule first, while it is cheap (it finishes within
+    // kAreaRuleFirst on most such pairs); the contour integral where it does not.
     f = polygon_integral_adaptive(a, b, nullptr, options_.tolerance, 1e-14 / kept, depth,
-                                  &evaluations, kAreaFirst, &estimated);
-    if (evaluations >= kAreaFirst) {
+                                  &evaluations, kAreaRuleFirst, &estimated);
+    if (evaluations >= kAreaRuleFirst) {
       cost.kernel_evaluations += uint64_t(evaluations);
       if (contour(c)) {
         *error = c.error;

@@ -211,33 +211,13 @@ Argmax first_in_block(const BlockBest& block, const ShotTargets& t) {
 namespace avx2 {
 
 typedef double V __attribute__((vector_size(32)));
-typedef long long VI __attribute__((vector_size(32)));
 constexpr size_t kWidth = 4;
 
 #define RADLAB_SIMD __attribute__((target("avx2")))
 #define RADLAB_SIMD_INLINE __attribute__((target("avx2"), always_inline)) inline
 
-RADLAB_SIMD_INLINE V load(const double* p) {
-  V v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
 RADLAB_SIMD_INLINE V load(const float* p) {
   return _mm256_cvtps_pd(_mm_loadu_ps(p));
-}
-RADLAB_SIMD_INLINE void store(double* p, V v) {
-  std::memcpy(p, &v, sizeof v);
-}
-RADLAB_SIMD_INLINE V splat(double x) {
-  return V{x, x, x, x};
-}
-RADLAB_SIMD_INLINE V vabs(V v) {
-  constexpr long long kAllButSign = std::numeric_limits<long long>::max();
-  VI bits;
-  std::memcpy(&bits, &v, sizeof bits);
-  bits &= kAllButSign;
-  std::memcpy(&v, &bits, sizeof v);
-  return v;
 }
 // max(a, b) as MAXPD computes it: a if a > b, else b; a NaN in a is ignored, like the scalar
 // selection's `p > best`.
@@ -253,11 +233,6 @@ RADLAB_SIMD_INLINE double hmax(V v) {
   const __m128d m = _mm_max_pd(_mm256_castpd256_pd128(v), _mm256_extractf128_pd(v, 1));
   return _mm_cvtsd_f64(_mm_max_sd(m, _mm_unpackhi_pd(m, m)));
 }
-template <bool kClamp>
-RADLAB_SIMD_INLINE V vclamped(V v) {
-  if constexpr (kClamp) return v > splat(0.0) ? v : splat(0.0);
-  return v;
-}
 
 #include "radlab/solvers/kernels_simd.inc"
 
@@ -268,7 +243,6 @@ RADLAB_SIMD_INLINE V vclamped(V v) {
 namespace avx512 {
 
 typedef double V __attribute__((vector_size(64)));
-typedef long long VI __attribute__((vector_size(64)));
 constexpr size_t kWidth = 8;
 
 // AVX-512 F for the 512-bit arithmetic; VL, DQ and BW (every AVX-512 CPU since Skylake-X has
@@ -277,31 +251,12 @@ constexpr size_t kWidth = 8;
 #define RADLAB_SIMD_INLINE \
   __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw"), always_inline)) inline
 
-RADLAB_SIMD_INLINE V load(const double* p) {
-  V v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
 // The zero-masked intrinsics with every lane selected, here and in hmax: the plain ones pass an
 // undefined source operand that GCC 12 warns "may be used uninitialized" (and
 // __builtin_convertvector converted in two halves).
 constexpr __mmask8 kAll = 0xff;
 RADLAB_SIMD_INLINE V load(const float* p) {
   return _mm512_maskz_cvtps_pd(kAll, _mm256_loadu_ps(p));
-}
-RADLAB_SIMD_INLINE void store(double* p, V v) {
-  std::memcpy(p, &v, sizeof v);
-}
-RADLAB_SIMD_INLINE V splat(double x) {
-  return V{x, x, x, x, x, x, x, x};
-}
-RADLAB_SIMD_INLINE V vabs(V v) {
-  constexpr long long kAllButSign = std::numeric_limits<long long>::max();
-  VI bits;
-  std::memcpy(&bits, &v, sizeof bits);
-  bits &= kAllButSign;
-  std::memcpy(&v, &bits, sizeof v);
-  return v;
 }
 // MAXPD's rule, as avx2::vmax: a if a > b, else b (so a NaN in a is ignored).
 RADLAB_SIMD_INLINE V vmax(V a, V b) {
@@ -314,11 +269,6 @@ RADLAB_SIMD_INLINE double hmax(V v) {
                                   _mm512_maskz_extractf64x4_pd(kAll, v, 1));
   const __m128d m = _mm_max_pd(_mm256_castpd256_pd128(h), _mm256_extractf128_pd(h, 1));
   return _mm_cvtsd_f64(_mm_max_sd(m, _mm_unpackhi_pd(m, m)));
-}
-template <bool kClamp>
-RADLAB_SIMD_INLINE V vclamped(V v) {
-  if constexpr (kClamp) return v > splat(0.0) ? v : splat(0.0);
-  return v;
 }
 
 #include "radlab/solvers/kernels_simd.inc"

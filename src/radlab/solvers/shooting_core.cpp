@@ -194,14 +194,7 @@ double ShootingCore::priority(size_t j) const {
     }
     return p * shooter_area(j);
   }
-  double p = 0.0;
-  for (int c = 0; c < channels(); ++c) {
-    if (offset_)
-      p += std::fabs(dB_.at(c, j) + offset_->at(c, j));
-    else
-      p += std::fabs(dB_.at(c, j));
-  }
-  return p * system_->area()[j];
+  return element_priority(j);
 }
 
 bool ShootingCore::all_shot() const {

@@ -91,19 +91,11 @@ class ShootingCore {
     dirty_ = true;
   }
   // add_unshot(c, j, v[c]) for every channel, then priority(j), for element j of a one-level
-  // System: the same bits, formed from the values just stored rather than read back, and inline
-  // (interleaved's corrections call it once per member of a session, where the out-of-line
-  // priority() was as costly as the shot kernel itself).
+  // System, inline (interleaved's corrections call it once per member of a session, where the
+  // out-of-line priority() was as costly as the shot kernel itself).
   double add_unshot_priority(size_t j, const double* v) {
-    double p = 0.0;
-    for (int c = 0; c < channels(); ++c) {
-      double& u = dB_.at(c, j);
-      u += v[c];
-      if (float_) u = double(float(u));
-      p += std::fabs(offset_ ? u + offset_->at(c, j) : u);
-    }
-    dirty_ = true;
-    return p * system_->area()[j];
+    for (int c = 0; c < channels(); ++c) add_unshot(c, j, v[c]);
+    return element_priority(j);
   }
 
   // Float storage of x and dB (Wu & Wang 2002 §4 blame part of their pure-shooting curves'
@@ -122,6 +114,13 @@ class ShootingCore {
 
  private:
   kernels::ShotTargets targets() const;
+  // An element's priority, A_j sum_c |dB_cj (+ o_cj)|, in the kernels' order.
+  double element_priority(size_t j) const {
+    double p = 0.0;
+    for (int c = 0; c < channels(); ++c)
+      p += std::fabs(offset_ ? dB_.at(c, j) + offset_->at(c, j) : dB_.at(c, j));
+    return p * system_->area()[j];
+  }
   template <class Row>
   kernels::Argmax shoot_patch(const Row& F, size_t p, const double* s, bool select);
 
