@@ -248,8 +248,11 @@ BENCHMARK(BM_VisibilityVsRawPacketRatio)
 // 0.1 m in front of a unit quad, a stratified (u, v) for the direction), then casts as many raw
 // rtcOccluded16 rays. "ratio" is the sampler's points/s over the raw rays/s: how many rays' worth
 // of Embree time one sample costs is 1 / ratio. (hospital.mgf's build spent ~25% of its time here
-// before 2026-11-27: docs/formfactors.md, "hospital.mgf's build, profiled and cut".)
+// before 2026-11-27: docs/formfactors.md, "hospital.mgf's build, profiled and cut".) Argument
+// batch: 0 one SolidAngleSampler per point, 1 sample_solid_angles over lanes of 16 (what
+// trace_close calls since stop 27; the same bits).
 void BM_SolidAngleSamplerVsRawPacketRatio(benchmark::State& state) {
+  const bool batch = state.range(0) != 0;
   const std::vector<Vec3> quad = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0.02}, {0, 1, 0}};
   const Vec3 normal = glm::normalize(glm::cross(quad[1] - quad[0], quad[3] - quad[0]));
   constexpr int kSamples = 4096;
@@ -260,12 +263,23 @@ void BM_SolidAngleSamplerVsRawPacketRatio(benchmark::State& state) {
   uint64_t samples = 0;
   for (auto _ : state) {
     const timespec start = thread_now();
+    SolidAngleLanes lanes;
     for (int k = 0; k < kSamples; ++k) {
       const Vec3 x(0.3 + 0.4 * rng.next_double(), 0.3 + 0.4 * rng.next_double(), 0.1);
-      const SolidAngleSampler toward(x, quad, normal);
       const double u = ((k & 63) + rng.next_double()) / 64.0,
                    v = ((k >> 6) + rng.next_double()) / 64.0;
-      sum += toward.solid_angle() * toward.point(u, v);
+      if (!batch) {
+        const SolidAngleSampler toward(x, quad, normal);
+        sum += toward.solid_angle() * toward.point(u, v);
+        continue;
+      }
+      const int lane = k % SolidAngleLanes::kLanes;
+      lanes.x[0][lane] = x.x, lanes.x[1][lane] = x.y, lanes.x[2][lane] = x.z;
+      lanes.u[lane] = u, lanes.v[lane] = v;
+      if (lane + 1 < SolidAngleLanes::kLanes) continue;
+      sample_solid_angles(quad, normal, SolidAngleLanes::kLanes, lanes);
+      for (int l = 0; l < SolidAngleLanes::kLanes; ++l)
+        sum += lanes.omega[l] * Vec3(lanes.y[0][l], lanes.y[1][l], lanes.y[2][l]);
     }
     seconds += thread_seconds(start);
     samples += kSamples;
@@ -278,7 +292,12 @@ void BM_SolidAngleSamplerVsRawPacketRatio(benchmark::State& state) {
   state.counters["ratio"] = rate / raw_rate;
   state.counters["ns/sample"] = 1e9 * seconds / double(samples);
 }
-BENCHMARK(BM_SolidAngleSamplerVsRawPacketRatio)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(BM_SolidAngleSamplerVsRawPacketRatio)
+    ->ArgName("batch")
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(2.0);
 
 // Shaft culling's decisions alone (shaft.h), on the facing pairs of 64 rows spread over the mesh:
 // argument 1 the default two tiers (polygon-pair candidates, then the element-level test on them),

@@ -6,7 +6,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <glm/geometric.hpp>
+#include <random>
 #include <vector>
 
 #include "radlab/formfactor/matrix.h"
@@ -60,6 +62,60 @@ TEST(StratifiedSampler, FloatBatchMatchesThePointsAndStaysOnTheElement) {
     EXPECT_EQ(int(std::floor(p.x * 4)), int(k % 4));
     EXPECT_EQ(int(std::floor(p.y * 4)), int(k / 4));
   }
+}
+
+// sample_solid_angles repeats SolidAngleSampler lane by lane: the same bits on every path (in
+// front, behind, in the plane, near a corner, tiny fan triangles, every lane count), for the
+// vector code this machine runs. Any reordering of its arithmetic shows here.
+TEST(SolidAngleBatch, SameBitsAsTheSamplerOnEveryPath) {
+  std::vector<std::vector<Vec3>> shapes = {
+      {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0)},
+      {Vec3(0, 0, 0), Vec3(2, 0, 0.1), Vec3(2.5, 1, 0.2), Vec3(0, 1.5, 0.1)},
+      {Vec3(1, 0, 1), Vec3(3, 0, 1), Vec3(1, 2, 1)},
+      {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1.5, 0.8, 0), Vec3(0.5, 1.4, 0), Vec3(-0.4, 0.7, 0)},
+      {Vec3(0, 0, 0), Vec3(1e-7, 0, 0), Vec3(1e-7, 1, 0), Vec3(0, 1, 0)}};  // a sliver
+  std::vector<Vec3> disc;                                                   // a 15-gon
+  for (int k = 0; k < 15; ++k) disc.emplace_back(std::cos(k * 0.4189), std::sin(k * 0.4189), 0.0);
+  shapes.push_back(disc);
+  std::mt19937_64 random(5);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  size_t in_front = 0, away = 0;
+  for (const auto& shape : shapes) {
+    const Vec3 normal = glm::normalize(glm::cross(shape[1] - shape[0], shape[2] - shape[0]));
+    for (int trial = 0; trial < 300; ++trial) {
+      SolidAngleLanes lanes;
+      const int count = 1 + int(unit(random) * 16.0) % 16;
+      for (int k = 0; k < count; ++k) {
+        // Above a point of the polygon's box at heights from 1e-7 to 10; some behind, some in
+        // the plane, some next to a corner.
+        const Vec3 base = shape[size_t(unit(random) * double(shape.size())) % shape.size()];
+        const double kind = unit(random);
+        const double height = kind < 0.1    ? -0.5
+                              : kind < 0.15 ? 0.0
+                                            : std::pow(10.0, -7.0 + 8.0 * unit(random));
+        const Vec3 spread = kind > 0.9 ? Vec3(1e-9) : Vec3(unit(random), unit(random), 0.0) - 0.5;
+        const Vec3 x = base + spread + height * normal;
+        lanes.x[0][k] = x.x, lanes.x[1][k] = x.y, lanes.x[2][k] = x.z;
+        lanes.u[k] = trial % 7 == 0 ? 0.0 : unit(random);
+        lanes.v[k] = trial % 11 == 0 ? 0.9999999999 : unit(random);
+      }
+      sample_solid_angles(shape, normal, count, lanes);
+      for (int k = 0; k < count; ++k) {
+        const Vec3 x(lanes.x[0][k], lanes.x[1][k], lanes.x[2][k]);
+        const SolidAngleSampler sampler(x, shape, normal);
+        const Vec3 y = sampler.point(lanes.u[k], lanes.v[k]);
+        const double expected[4] = {y.x, y.y, y.z, sampler.solid_angle()};
+        const double got[4] = {lanes.y[0][k], lanes.y[1][k], lanes.y[2][k], lanes.omega[k]};
+        ASSERT_EQ(std::memcmp(expected, got, sizeof(got)), 0)
+            << shape.size() << " corners, trial " << trial << " lane " << k << ": (" << got[0]
+            << ", " << got[1] << ", " << got[2] << ", " << got[3] << ") against (" << y.x << ", "
+            << y.y << ", " << y.z << ", " << expected[3] << ")";
+        (sampler.solid_angle() > 0.0 ? in_front : away) += 1;
+      }
+    }
+  }
+  EXPECT_GT(in_front, 3000u);
+  EXPECT_GT(away, 300u);
 }
 
 // The own-polygon filter is left off only where no hit on i's or j's polygon can occur: V is the

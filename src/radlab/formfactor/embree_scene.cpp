@@ -199,6 +199,29 @@ void EmbreeScene::occluded16_with(const SegmentPacket& packet, bool* out, void* 
   for (int k = 0; k < packet.count; ++k) out[k] = rays.tfar[k] < 0.0f;
 }
 
+void EmbreeScene::elements_near(const Vec3& center, double radius,
+                                std::vector<uint32_t>& out) const {
+  struct Found {
+    const uint32_t* triangle_element;
+    std::vector<uint32_t>* out;
+  } found{triangle_element_.data(), &out};
+  RTCPointQuery query;
+  query.x = float(center.x);
+  query.y = float(center.y);
+  query.z = float(center.z);
+  query.time = 0.0f;
+  // Rounded up, so that the float sphere holds the double one.
+  query.radius = std::nextafter(float(radius), std::numeric_limits<float>::infinity());
+  RTCPointQueryContext context;
+  rtcInitPointQueryContext(&context);
+  const RTCPointQueryFunction collect = [](RTCPointQueryFunctionArguments* args) {
+    const auto* f = static_cast<const Found*>(args->userPtr);
+    f->out->push_back(f->triangle_element[args->primID]);
+    return false;  // the query's radius is unchanged
+  };
+  rtcPointQuery(impl_->scene, &query, &context, collect, &found);
+}
+
 RayHit EmbreeScene::intersect(const Vec3& o, const Vec3& d, double t_near, double t_far) const {
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);

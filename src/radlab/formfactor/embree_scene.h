@@ -58,6 +58,11 @@ class EmbreeScene {
   void occluded16_off_planes(const SegmentPacket& packet, bool* out, const Plane& a, const Plane& b,
                              uint32_t skip_a = kNoPolygon, uint32_t skip_b = kNoPolygon) const;
 
+  // Appends to `out` every element with a triangle that may come within `radius` of `center`
+  // (Embree's point query: every triangle in a leaf of its hierarchy whose box reaches the
+  // sphere, so a superset of those the sphere meets); an element may appear more than once.
+  void elements_near(const Vec3& center, double radius, std::vector<uint32_t>& out) const;
+
   // The closest element hit by a ray, if any.
   RayHit intersect(const Vec3& origin, const Vec3& direction, double t_near, double t_far) const;
 

@@ -192,3 +192,192 @@ Vec3 SolidAngleSampler::point(double u, double v) const {
 }
 
 }  // namespace radlab
+
+namespace radlab {
+
+namespace {
+
+constexpr int kLanes = SolidAngleLanes::kLanes;
+using Lane = double[kLanes];
+
+// std::clamp's and std::max's comparisons, as value selects.
+inline double clamped(double v, double lo, double hi) {
+  return v < lo ? lo : (hi < v ? hi : v);
+}
+inline double at_least_zero(double v) {
+  return 0.0 < v ? v : 0.0;
+}
+
+}  // namespace
+
+// Lane k repeats SolidAngleSampler(x_k, corners, normal) and point(u_k, v_k) operation for
+// operation; every branch of theirs becomes a select at the end (all paths computed, the
+// divisions too: a lane whose divisor is 0 takes another path). glm's dot is (x x' + y y') +
+// z z', normalize multiplies by 1 / sqrt, cross is (y z' - y' z, z x' - z' x, x y' - x' y).
+[[gnu::target_clones("avx2", "default")]] void sample_solid_angles(std::span<const Vec3> c,
+                                                                   const Vec3& n, int count,
+                                                                   SolidAngleLanes& L) {
+  const size_t corners = c.size();
+  const int lanes = std::clamp(count, 1, kLanes);
+  for (int k = lanes; k < kLanes; ++k) {  // unused lanes repeat lane 0
+    for (int a = 0; a < 3; ++a) L.x[a][k] = L.x[a][0];
+    L.u[k] = L.u[0], L.v[k] = L.v[0];
+  }
+  if (corners < 3 || corners > SolidAngleSampler::kMaxCorners) {  // sees nothing
+    for (int k = 0; k < lanes; ++k) {
+      L.omega[k] = 0.0;
+      for (int a = 0; a < 3; ++a) L.y[a][k] = corners ? c[0][a] : 0.0;
+    }
+    return;
+  }
+  // The constructor: unit vectors towards the corners, the fan triangles' solid angles.
+  alignas(64) Lane ux[SolidAngleSampler::kMaxCorners], uy[SolidAngleSampler::kMaxCorners],
+      uz[SolidAngleSampler::kMaxCorners];
+  alignas(64) Lane cumulative[SolidAngleSampler::kMaxCorners];
+  alignas(64) Lane total, front;
+  for (int k = 0; k < kLanes; ++k) {
+    const double dx = L.x[0][k] - c[0].x, dy = L.x[1][k] - c[0].y, dz = L.x[2][k] - c[0].z;
+    front[k] = (dx * n.x + dy * n.y) + dz * n.z > 0.0 ? 1.0 : 0.0;
+    total[k] = 0.0;
+  }
+  for (size_t i = 0; i < corners; ++i)
+    for (int k = 0; k < kLanes; ++k) {
+      const double dx = c[i].x - L.x[0][k], dy = c[i].y - L.x[1][k], dz = c[i].z - L.x[2][k];
+      const double inverse = 1.0 / std::sqrt((dx * dx + dy * dy) + dz * dz);
+      ux[i][k] = dx * inverse, uy[i][k] = dy * inverse, uz[i][k] = dz * inverse;
+    }
+  for (size_t f = 1; f + 1 < corners; ++f) {
+    alignas(64) Lane triple, denominator, area;
+    const Lane &ax = ux[0], &ay = uy[0], &az = uz[0];
+    const Lane &bx = ux[f], &by = uy[f], &bz = uz[f];
+    const Lane &cx = ux[f + 1], &cy = uy[f + 1], &cz = uz[f + 1];
+    for (int k = 0; k < kLanes; ++k) {
+      const double wx = by[k] * cz[k] - cy[k] * bz[k], wy = bz[k] * cx[k] - cz[k] * bx[k],
+                   wz = bx[k] * cy[k] - cx[k] * by[k];
+      triple[k] = std::abs((ax[k] * wx + ay[k] * wy) + az[k] * wz);
+      const double ab = (ax[k] * bx[k] + ay[k] * by[k]) + az[k] * bz[k];
+      const double bc = (bx[k] * cx[k] + by[k] * cy[k]) + bz[k] * cz[k];
+      const double ca = (cx[k] * ax[k] + cy[k] * ay[k]) + cz[k] * az[k];
+      denominator[k] = ((1.0 + ab) + bc) + ca;
+      area[k] = 2.0 * atan2_upper(triple[k], denominator[k]);
+    }
+    // spherical_triangle_area takes libm's atan2 for a flat triangle (rare): redo those lanes.
+    for (int k = 0; k < kLanes; ++k)
+      if (!(triple[k] > 0.0)) area[k] = 2.0 * std::atan2(triple[k], denominator[k]);
+    for (int k = 0; k < kLanes; ++k) {
+      total[k] += area[k];
+      cumulative[f - 1][k] = total[k];
+    }
+  }
+  // point(u, v): the fan triangle f whose share holds u (upper_bound over the first
+  // triangles - 1 cumulative values: how many are at most u Omega), its corners gathered.
+  const size_t triangles = corners - 2;
+  alignas(64) Lane value, fan, before, upto;
+  alignas(64) Lane bx, by, bz, cx, cy, cz, p1x, p1y, p1z, p2x, p2y, p2z;
+  for (int k = 0; k < kLanes; ++k) {
+    value[k] = L.u[k] * total[k];
+    fan[k] = 0.0, before[k] = 0.0, upto[k] = cumulative[0][k];
+    bx[k] = ux[1][k], by[k] = uy[1][k], bz[k] = uz[1][k];
+    cx[k] = ux[2][k], cy[k] = uy[2][k], cz[k] = uz[2][k];
+    p1x[k] = c[1].x, p1y[k] = c[1].y, p1z[k] = c[1].z;
+    p2x[k] = c[2].x, p2y[k] = c[2].y, p2z[k] = c[2].z;
+  }
+  for (size_t t = 0; t + 1 < triangles; ++t)
+    for (int k = 0; k < kLanes; ++k) fan[k] += cumulative[t][k] <= value[k] ? 1.0 : 0.0;
+  for (size_t t = 1; t < triangles; ++t) {
+    const double index = double(t);
+    const Vec3 p1 = c[t + 1], p2 = c[t + 2];  // loaded once: the selects below then vectorise
+    const Lane &before_t = cumulative[t - 1], &upto_t = cumulative[t];
+    const Lane &bx_t = ux[t + 1], &by_t = uy[t + 1], &bz_t = uz[t + 1];
+    const Lane &cx_t = ux[t + 2], &cy_t = uy[t + 2], &cz_t = uz[t + 2];
+    for (int k = 0; k < kLanes; ++k) {
+      const bool here = fan[k] == index;
+      before[k] = here ? before_t[k] : before[k];
+      upto[k] = here ? upto_t[k] : upto[k];
+      bx[k] = here ? bx_t[k] : bx[k], by[k] = here ? by_t[k] : by[k];
+      bz[k] = here ? bz_t[k] : bz[k];
+      cx[k] = here ? cx_t[k] : cx[k], cy[k] = here ? cy_t[k] : cy[k];
+      cz[k] = here ? cz_t[k] : cz[k];
+      p1x[k] = here ? p1.x : p1x[k], p1y[k] = here ? p1.y : p1y[k];
+      p1z[k] = here ? p1.z : p1z[k];
+      p2x[k] = here ? p2.x : p2x[k], p2y[k] = here ? p2.y : p2y[k];
+      p2z[k] = here ? p2.z : p2z[k];
+    }
+  }
+  alignas(64) Lane angle, area, lengths, triple, dot_ab_ac;
+  for (int k = 0; k < kLanes; ++k) {
+    area[k] = upto[k] - before[k];
+    const double area_hat = clamped(value[k] - before[k], 0.0, area[k]);
+    const double ax = ux[0][k], ay = uy[0][k], az = uz[0][k];
+    const double abx = ay * bz[k] - by[k] * az, aby = az * bx[k] - bz[k] * ax,
+                 abz = ax * by[k] - bx[k] * ay;
+    const double acx = ay * cz[k] - cy[k] * az, acy = az * cx[k] - cz[k] * ax,
+                 acz = ax * cy[k] - cx[k] * ay;
+    lengths[k] = std::sqrt((abx * abx + aby * aby) + abz * abz) *
+                 std::sqrt((acx * acx + acy * acy) + acz * acz);
+    const double wx = by[k] * cz[k] - cy[k] * bz[k], wy = bz[k] * cx[k] - cz[k] * bx[k],
+                 wz = bx[k] * cy[k] - cx[k] * by[k];
+    triple[k] = std::abs((ax * wx + ay * wy) + az * wz);
+    dot_ab_ac[k] = (abx * acx + aby * acy) + abz * acz;
+    const double alpha =
+        triple[k] > 0.0 ? atan2_upper(triple[k], dot_ab_ac[k]) : (dot_ab_ac[k] < 0.0 ? M_PI : 0.0);
+    angle[k] = area_hat - alpha;
+  }
+  alignas(64) Lane sine, cosine;
+  for (int k = 0; k < lanes; ++k) ::sincos(angle[k], &sine[k], &cosine[k]);
+  for (int k = lanes; k < kLanes; ++k) sine[k] = 0.0, cosine[k] = 1.0;
+  const Vec3 c0 = c[0];
+  for (int k = 0; k < kLanes; ++k) {
+    const double s = sine[k], t = cosine[k];
+    const double cos_alpha = clamped(dot_ab_ac[k] / lengths[k], -1.0, 1.0);
+    const double sin_alpha = triple[k] / lengths[k];
+    const double ax = ux[0][k], ay = uy[0][k], az = uz[0][k];
+    const double cos_c = (ax * bx[k] + ay * by[k]) + az * bz[k];
+    const double uu = t - cos_alpha, vv = s + sin_alpha * cos_c;
+    const double denominator = (vv * s + uu * t) * sin_alpha;
+    const double q = denominator != 0.0
+                         ? clamped(((vv * t - uu * s) * cos_alpha - vv) / denominator, -1.0, 1.0)
+                         : 1.0;
+    const double ca = (cx[k] * ax + cy[k] * ay) + cz[k] * az;
+    double tx = cx[k] - ca * ax, ty = cy[k] - ca * ay, tz = cz[k] - ca * az;
+    const double towards_c_length = std::sqrt((tx * tx + ty * ty) + tz * tz);
+    tx /= towards_c_length, ty /= towards_c_length, tz /= towards_c_length;
+    const double root_q = std::sqrt(at_least_zero(1.0 - q * q));
+    const double hx = q * ax + root_q * tx, hy = q * ay + root_q * ty, hz = q * az + root_q * tz;
+    const double hb = (hx * bx[k] + hy * by[k]) + hz * bz[k];
+    const double z = 1.0 - L.v[k] * (1.0 - hb);
+    const double gx = hx - hb * bx[k], gy = hy - hb * by[k], gz = hz - hb * bz[k];
+    const double towards_length = std::sqrt((gx * gx + gy * gy) + gz * gz);
+    const double root_z = std::sqrt(at_least_zero(1.0 - z * z));
+    const bool turn = towards_length > 0.0;
+    const double dx = turn ? z * bx[k] + root_z * (gx / towards_length) : bx[k];
+    const double dy = turn ? z * by[k] + root_z * (gy / towards_length) : by[k];
+    const double dz = turn ? z * bz[k] + root_z * (gz / towards_length) : bz[k];
+    const double along = (dx * n.x + dy * n.y) + dz * n.z;
+    const double x0 = L.x[0][k], x1 = L.x[1][k], x2 = L.x[2][k];
+    const double height = ((c0.x - x0) * n.x + (c0.y - x1) * n.y) + (c0.z - x2) * n.z;
+    const double scale = height / along;
+    const double r = std::sqrt(L.u[k]), w1 = r * (1.0 - L.v[k]), w2 = r * L.v[k];
+    // The paths of point(), in its order of tests.
+    const bool sees = (front[k] > 0.0) & (total[k] > 0.0);  // no && or ||: no branches
+    const bool by_area = !(area[k] > 1e-12);
+    const bool degenerate = !(lengths[k] > 0.0) | !(towards_c_length > 0.0);
+    const bool grazing = !(along < 0.0);
+    const auto pick = [&](double first, double p1, double p2, double x, double d) {
+      const double uniform = ((1.0 - r) * first + w1 * p1) + w2 * p2;
+      const double middle = ((first + p1) + p2) / 3.0;
+      const double on_ray = x + d * scale;
+      // Two-way selects from the last test back (GCC if-converts no merge of five values).
+      double y = grazing ? middle : on_ray;
+      y = degenerate ? first : y;
+      y = by_area ? uniform : y;
+      return sees ? y : first;
+    };
+    L.y[0][k] = pick(c0.x, p1x[k], p2x[k], x0, dx);
+    L.y[1][k] = pick(c0.y, p1y[k], p2y[k], x1, dy);
+    L.y[2][k] = pick(c0.z, p1z[k], p2z[k], x2, dz);
+    L.omega[k] = sees ? total[k] : 0.0;
+  }
+}
+
+}  // namespace radlab

@@ -87,6 +87,20 @@ class SolidAngleSampler {
   Vec3 unit_[kMaxCorners];          // (corner - x) / |corner - x|, set when total_ > 0
 };
 
+// SolidAngleSampler for up to 16 points x_k at once, each toward the same polygon: in x, u, v
+// (lanes 0..count-1), out the points y = SolidAngleSampler(x_k, corners, normal).point(u_k, v_k)
+// and omega = its solid_angle(). Each lane takes the same operations in the same order as
+// SolidAngleSampler (no fused multiply-adds in either; libm's sincos and atan2 where it calls
+// them), so the results are the same bits; the loops run over the lanes, so they vectorise.
+// Close pairs draw one such point per ray (visibility.cpp, trace_close).
+struct SolidAngleLanes {
+  static constexpr int kLanes = 16;
+  alignas(64) double x[3][kLanes], u[kLanes], v[kLanes];  // in
+  alignas(64) double y[3][kLanes], omega[kLanes];         // out
+};
+void sample_solid_angles(std::span<const Vec3> corners, const Vec3& normal, int count,
+                         SolidAngleLanes& lanes);
+
 // The solid angle of the triangle of unit vectors (a, b, c): Van Oosterom & Strackee (1983),
 // tan(Omega / 2) = |a . (b x c)| / (1 + a.b + b.c + c.a).
 double spherical_triangle_area(const Vec3& a, const Vec3& b, const Vec3& c);

@@ -8,6 +8,8 @@
 #define GLM_ENABLE_EXPERIMENTAL
 #include <cstdlib>
 #include <glm/gtx/norm.hpp>
+#include <glm/vector_relational.hpp>
+#include <limits>
 #include <numeric>
 #include <thread>
 
@@ -42,6 +44,188 @@ Visibility::Visibility(const Scene& scene, const Mesh& mesh, int rays, uint64_t 
   embree_ = std::make_unique<EmbreeScene>(mesh);
   compute_own_polygon_margins();
   radius_ = element_radii(mesh);
+  compute_end_neighbours();
+}
+
+// The skipped ends' pieces (trace_skipped_ends) are traced again with hits on the two ends' own
+// polygons ignored, so only another polygon can block one, and only where it reaches the piece:
+// for most pieces none comes near, and they need no ray. A piece spans at most the reach
+// max(1e-4 diagonal, 1e-6 m) from its segment's end: t_near (and 1 - t_far) is at most 1e-4
+// on segments of 1 cm or more and at most 1e-6 m / |d| on shorter ones (trace, trace_close), |d|
+// at most the scene's diagonal. piece_may_be_blocked checks that bound and that the end lies in
+// e's region (below); a piece that fails either is traced.
+//
+// e's region: in e's frame (u along `across`, v along `along`, h along the normal, from its
+// centroid) the range of e's corners grown by twice the reach and the rounding margin (64 float
+// ulps of the largest coordinate, for the ray's float origin and direction and Embree's float
+// hit test, plus 1e-9 of the diagonal). An end inside it shrunk by the reach keeps its whole
+// piece inside it. Listed for e: the elements c of other polygons whose boxes reach into the
+// region's axis-aligned box (Embree's point query, then a box test), each as its box and its slab
+// (the points within off_plane_[c] + float_error_ of its plane, where its float triangles lie),
+// both grown by the margin. A hit on c lies in both, so a piece that misses either cannot be
+// blocked by c; the slab matters where elements are tilted (their boxes overlap, their slabs
+// meet only along shared edges).
+//
+// The grid: kEndSide x kEndSide cells over the region's (u, v) rectangle, each standing for the
+// prism of its rectangle grown by the reach times the region's heights, so that it holds every
+// piece whose end falls in the cell. A cell is marked when its prism meets some neighbour's box
+// and slab: both are linear in (u, v, h), so their ranges over a prism come from the corner
+// values axis by axis. The cells are grown by rounding slack (a millionth of a cell, 1e-12 of the
+// coordinates), so that a point whose computed (u, v) falls in a cell lies in its prism. A piece
+// whose end's cell is clear needs no look at the list. Which pieces are traced changes the cost
+// only, never V: `set_end_prefilter(false)` traces them all (tests compare).
+void Visibility::compute_end_neighbours() {
+  const size_t n = mesh_.size();
+  Vec3 lo(std::numeric_limits<double>::infinity()), hi(-lo);
+  for (const Vec3& v : mesh_.vertices) lo = glm::min(lo, v), hi = glm::max(hi, v);
+  const double diagonal = mesh_.vertices.empty() ? 0.0 : glm::length(hi - lo);
+  const double margin = 8.0 * float_error_ + 1e-9 * diagonal;
+  const double reach = 1.001 * std::max(1e-4 * diagonal, 1e-6) + margin;
+  end_piece_reach_ = reach;
+  std::vector<Box> box(n);
+  for (size_t e = 0; e < n; ++e) {
+    Box b{Vec3(std::numeric_limits<double>::infinity()),
+          Vec3(-std::numeric_limits<double>::infinity())};
+    for (uint32_t v : mesh_.element_vertices(e))
+      b.lo = glm::min(b.lo, mesh_.vertices[v]), b.hi = glm::max(b.hi, mesh_.vertices[v]);
+    box[e] = b;
+  }
+  end_reach_.resize(n);
+  end_neighbours_first_.assign(n + 1, 0);
+  end_neighbours_.clear();
+  end_rows_.assign(n * kEndSide, 0);
+  std::vector<uint32_t> found;
+  for (size_t e = 0; e < n; ++e) {
+    // e's frame and region.
+    EndReach& r = end_reach_[e];
+    r.normal = mesh_.normal[e];
+    r.origin = mesh_.centroid[e];
+    const Vec3 helper = std::abs(r.normal.x) < 0.6 ? Vec3(1, 0, 0) : Vec3(0, 1, 0);
+    r.across = glm::normalize(glm::cross(r.normal, helper));
+    r.along = glm::cross(r.normal, r.across);
+    const auto frame = [&](const Vec3& x) {
+      const Vec3 p = x - r.origin;
+      return Vec3(glm::dot(p, r.across), glm::dot(p, r.along), glm::dot(p, r.normal));
+    };
+    Vec3 low(std::numeric_limits<double>::infinity()), high(-low);
+    for (uint32_t v : mesh_.element_vertices(e)) {
+      const Vec3 q = frame(mesh_.vertices[v]);
+      low = glm::min(low, q), high = glm::max(high, q);
+    }
+    const double grow = 2.0 * reach + 2.0 * margin;
+    r.lo = low - Vec3(grow), r.hi = high + Vec3(grow);
+    r.scale = double(kEndSide) / glm::max(glm::dvec2(r.hi) - glm::dvec2(r.lo), glm::dvec2(1e-300));
+    r.first_row = e * kEndSide;
+    // x(u, v, h) = origin + u across + v along + h normal: each coordinate, and the distance
+    // from a plane, is a + u b + v c + h d, whose range over a box of (u, v, h) is the sum of the
+    // three terms' ranges (widened by the rounding of the sums).
+    const auto range = [](double a, const Vec3& coefficient, const Vec3& q0, const Vec3& q1) {
+      double sum_lo = a, sum_hi = a;
+      for (int axis = 0; axis < 3; ++axis) {
+        const double p0 = coefficient[axis] * q0[axis], p1 = coefficient[axis] * q1[axis];
+        sum_lo += std::min(p0, p1), sum_hi += std::max(p0, p1);
+      }
+      const double round = 1e-12 * (std::abs(a) + std::abs(sum_lo) + std::abs(sum_hi));
+      return glm::dvec2(sum_lo - round, sum_hi + round);
+    };
+    const auto coefficients = [&](int axis) {
+      return Vec3(r.across[axis], r.along[axis], r.normal[axis]);
+    };
+    Box region;
+    for (int axis = 0; axis < 3; ++axis) {
+      const glm::dvec2 extent = range(r.origin[axis], coefficients(axis), r.lo, r.hi);
+      region.lo[axis] = extent.x - margin, region.hi[axis] = extent.y + margin;
+    }
+    // The neighbours.
+    found.clear();
+    embree_->elements_near(0.5 * (region.lo + region.hi),
+                           0.5 * glm::length(region.hi - region.lo) + margin, found);
+    std::sort(found.begin(), found.end());
+    found.erase(std::unique(found.begin(), found.end()), found.end());
+    for (uint32_t c : found) {
+      if (mesh_.polygon[c] == mesh_.polygon[e]) continue;  // ignored by the retrace
+      Neighbour g;
+      g.lo = box[c].lo - Vec3(margin), g.hi = box[c].hi + Vec3(margin);
+      if (glm::any(glm::lessThan(g.hi, region.lo)) || glm::any(glm::greaterThan(g.lo, region.hi)))
+        continue;
+      g.normal = mesh_.normal[c];
+      g.offset = glm::dot(g.normal, mesh_.centroid[c]);
+      g.thickness = off_plane_[c] + float_error_ + 2.0 * margin;
+      end_neighbours_.push_back(g);
+    }
+    end_neighbours_first_[e + 1] = uint32_t(end_neighbours_.size());
+    // The grid.
+    uint64_t* rows = end_rows_.data() + r.first_row;
+    const glm::dvec2 size = 1.0 / r.scale;
+    const glm::dvec2 slack =
+        1e-6 * size + 1e-12 * (glm::abs(glm::dvec2(r.lo)) + glm::abs(glm::dvec2(r.hi)));
+    for (uint32_t k = end_neighbours_first_[e]; k < end_neighbours_first_[e + 1]; ++k) {
+      const Neighbour& g = end_neighbours_[k];
+      // The cells whose prisms may reach the neighbour's box: its corners' (u, v) range.
+      glm::dvec2 gl(std::numeric_limits<double>::infinity()), gh(-gl);
+      for (int corner = 0; corner < 8; ++corner) {
+        const glm::dvec2 q(frame(Vec3(corner & 1 ? g.hi.x : g.lo.x, corner & 2 ? g.hi.y : g.lo.y,
+                                      corner & 4 ? g.hi.z : g.lo.z)));
+        gl = glm::min(gl, q), gh = glm::max(gh, q);
+      }
+      const glm::ivec2 first(glm::clamp((gl - glm::dvec2(r.lo) - slack - reach) * r.scale,
+                                        glm::dvec2(0.0), glm::dvec2(kEndSide - 1)));
+      const glm::ivec2 last(glm::clamp((gh - glm::dvec2(r.lo) + slack + reach) * r.scale,
+                                       glm::dvec2(0.0), glm::dvec2(kEndSide - 1)));
+      const double plane = glm::dot(g.normal, r.origin) - g.offset;
+      const Vec3 toward(glm::dot(g.normal, r.across), glm::dot(g.normal, r.along),
+                        glm::dot(g.normal, r.normal));
+      for (int y = first.y; y <= last.y; ++y)
+        for (int x = first.x; x <= last.x; ++x) {
+          const Vec3 q0(r.lo.x + x * size.x - slack.x - reach,
+                        r.lo.y + y * size.y - slack.y - reach, r.lo.z);
+          const Vec3 q1(r.lo.x + (x + 1) * size.x + slack.x + reach,
+                        r.lo.y + (y + 1) * size.y + slack.y + reach, r.hi.z);
+          const glm::dvec2 distance = range(plane, toward, q0, q1);
+          if (distance.x > g.thickness || distance.y < -g.thickness) continue;
+          bool inside = true;
+          for (int axis = 0; axis < 3 && inside; ++axis) {
+            const glm::dvec2 extent = range(r.origin[axis], coefficients(axis), q0, q1);
+            inside = extent.x <= g.hi[axis] && extent.y >= g.lo[axis];
+          }
+          if (inside) rows[y] |= uint64_t(1) << x;
+        }
+    }
+  }
+}
+
+// Whether the piece t in [t0, t1] of segment `lane`, next to element `end`, may be blocked: it
+// leaves end's reach, or it meets a listed neighbour's box and slab (compute_end_neighbours).
+bool Visibility::piece_may_be_blocked(size_t end, const SegmentPacket& s, int lane, float t0,
+                                      float t1, bool at_origin) const {
+  if (!end_prefilter_ || end_reach_.empty()) return true;
+  if (end_neighbours_first_[end] == end_neighbours_first_[end + 1]) return false;  // none near
+  const Vec3 o(s.ox[lane], s.oy[lane], s.oz[lane]), d(s.dx[lane], s.dy[lane], s.dz[lane]);
+  // The piece lies within the reach of the segment's end on `end` (its origin, or o + d), and
+  // that end in end's region shrunk by the reach (compute_end_neighbours).
+  const double span = at_origin ? double(t1) : 1.0 - double(t0);
+  if (!(span * span * glm::dot(d, d) * (1.0 + 1e-6) <= end_piece_reach_ * end_piece_reach_))
+    return true;
+  const EndReach& r = end_reach_[end];
+  const Vec3 p = (at_origin ? o : o + d) - r.origin;
+  const Vec3 q(glm::dot(p, r.across), glm::dot(p, r.along), glm::dot(p, r.normal));
+  // Most pieces lie in cells that no neighbour meets (cells marked with the pieces' reach).
+  if (glm::any(glm::lessThan(q, r.lo + Vec3(end_piece_reach_))) ||
+      glm::any(glm::greaterThan(q, r.hi - Vec3(end_piece_reach_))))
+    return true;
+  const glm::ivec2 cell(glm::clamp((glm::dvec2(q) - glm::dvec2(r.lo)) * r.scale, glm::dvec2(0.0),
+                                   glm::dvec2(kEndSide - 1)));
+  if (!((end_rows_[r.first_row + size_t(cell.y)] >> cell.x) & 1u)) return false;
+  // The float ray's points at t0 and t1, in double (the products of two floats are exact).
+  const Vec3 a = o + double(t0) * d, b = o + double(t1) * d;
+  const Vec3 lo = glm::min(a, b), hi = glm::max(a, b);
+  for (uint32_t k = end_neighbours_first_[end]; k < end_neighbours_first_[end + 1]; ++k) {
+    const Neighbour& g = end_neighbours_[k];
+    if (glm::any(glm::lessThan(g.hi, lo)) || glm::any(glm::greaterThan(g.lo, hi))) continue;
+    const double sa = glm::dot(g.normal, a) - g.offset, sb = glm::dot(g.normal, b) - g.offset;
+    if (std::min(sa, sb) <= g.thickness && std::max(sa, sb) >= -g.thickness) return true;
+  }
+  return false;
 }
 
 // Bounds for deciding when a pair's rays cannot meet i's or j's own polygon (see trace).
@@ -295,8 +479,14 @@ void Visibility::trace_skipped_ends(const SegmentPacket& segments, bool* blocked
     for (int k = 0; k < pieces.count; ++k) blocked[lane_of[k]] |= hit[k];
     pieces.count = 0;
   };
-  const auto add = [&](int lane, float t0, float t1) {
+  uint64_t traced = 0, cleared = 0;
+  const auto add = [&](int lane, float t0, float t1, size_t end, bool at_origin) {
     if (!(t0 < t1)) return;
+    if (!piece_may_be_blocked(end, segments, lane, t0, t1, at_origin)) {
+      ++cleared;
+      return;
+    }
+    ++traced;
     if (pieces.count == 16) flush();
     const int k = pieces.count++;
     pieces.ox[k] = segments.ox[lane], pieces.oy[k] = segments.oy[lane];
@@ -309,10 +499,12 @@ void Visibility::trace_skipped_ends(const SegmentPacket& segments, bool* blocked
   pieces.count = 0;
   for (int lane = 0; lane < segments.count; ++lane) {
     if (blocked[lane]) continue;
-    add(lane, kEnd, segments.t_near[lane]);
-    add(lane, segments.t_far[lane], 1.0f - kEnd);
+    add(lane, kEnd, segments.t_near[lane], from, true);
+    add(lane, segments.t_far[lane], 1.0f - kEnd, to, false);
   }
   flush();
+  if (traced) end_pieces_traced_.fetch_add(traced, std::memory_order_relaxed);
+  if (cleared) end_pieces_cleared_.fetch_add(cleared, std::memory_order_relaxed);
 }
 
 int Visibility::trace(size_t i, size_t j, int R, RowCost& cost, double& sigma) const {
@@ -458,6 +650,8 @@ int Visibility::trace_close(size_t lo, size_t hi, const FacingParts& parts, int 
   alignas(64) float weight[16];
   bool blocked[16];
   WeightedVisibility fraction;
+  thread_local SolidAngleLanes toward;
+  uint32_t lane_stratum[16], lane_bits[16];
   for (int start = 0; start < R; start += 16) {
     const int count = std::min(16, R - start);
     packet.count = count;
@@ -467,14 +661,21 @@ int Visibility::trace_close(size_t lo, size_t hi, const FacingParts& parts, int 
       const uint64_t bits = mix64(key + k);
       const uint32_t bits_from = uint32_t(bits), bits_to = uint32_t(bits >> 32);
       const Vec3 x = from.point(int(s_from % uint32_t(m)), int(s_from / uint32_t(m)), bits_from);
-      const SolidAngleSampler toward(x, to_part, n_to);
-      const double u = (s_to % uint32_t(m) + ((bits_to & 0xFFFFu) + 0.5) * 0x1p-16) / m;
-      const double v = (s_to / uint32_t(m) + ((bits_to >> 16) + 0.5) * 0x1p-16) / m;
-      const Vec3 y = toward.point(u, v);
+      toward.x[0][lane] = x.x, toward.x[1][lane] = x.y, toward.x[2][lane] = x.z;
+      toward.u[lane] = (s_to % uint32_t(m) + ((bits_to & 0xFFFFu) + 0.5) * 0x1p-16) / m;
+      toward.v[lane] = (s_to / uint32_t(m) + ((bits_to >> 16) + 0.5) * 0x1p-16) / m;
+      lane_stratum[lane] = s_from, lane_bits[lane] = bits_from;
+    }
+    // y_k drawn uniformly in the solid angle of the target's part seen from x_k.
+    sample_solid_angles(to_part, n_to, count, toward);
+    for (int lane = 0; lane < count; ++lane) {
+      const Vec3 x(toward.x[0][lane], toward.x[1][lane], toward.x[2][lane]);
+      const Vec3 y(toward.y[0][lane], toward.y[1][lane], toward.y[2][lane]);
       const Vec3 d = y - x;
       const double length = glm::length(d);
       const double cos_from = length > 0.0 ? std::max(0.0, glm::dot(n_from, d) / length) : 0.0;
-      weight[lane] = float(toward.solid_angle() * cos_from * from.area_weight(s_from, bits_from));
+      weight[lane] = float(toward.omega[lane] * cos_from *
+                           from.area_weight(lane_stratum[lane], lane_bits[lane]));
       packet.ox[lane] = float(x.x), packet.oy[lane] = float(x.y), packet.oz[lane] = float(x.z);
       const float dx = float(d.x), dy = float(d.y), dz = float(d.z);
       packet.dx[lane] = dx, packet.dy[lane] = dy, packet.dz[lane] = dz;

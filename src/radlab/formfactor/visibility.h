@@ -32,6 +32,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <glm/vec2.hpp>
 #include <memory>
 #include <string>
 #include <vector>
@@ -68,6 +69,14 @@ class Visibility {
   bool casts_rays() const { return !convex_enclosure_; }
   std::vector<std::string> left_out() const;
 
+  // Whether the skipped ends' pieces that no other polygon comes near are left untraced (the
+  // default; compute_end_neighbours). Off, every piece is traced again: V must not change (for
+  // tests and measurement).
+  void set_end_prefilter(bool on) { end_prefilter_ = on; }
+  // Pieces traced again and pieces the prefilter proved clear, over all threads (measurement).
+  uint64_t end_pieces_traced() const { return end_pieces_traced_.load(); }
+  uint64_t end_pieces_cleared() const { return end_pieces_cleared_.load(); }
+
   // Which traced pairs get the Embree filter that drops hits on i's and j's own polygons:
   // automatic (the default) only pairs where such a hit can occur; always every pair (V must not
   // change: for tests and measurement); never none (for tests: shows the hits it removes).
@@ -103,6 +112,9 @@ class Visibility {
   uint32_t own_polygon_to_skip(size_t own, double height) const;
   void trace_skipped_ends(const SegmentPacket& segments, bool* blocked, size_t from,
                           size_t to) const;
+  void compute_end_neighbours();
+  bool piece_may_be_blocked(size_t end, const SegmentPacket& segments, int lane, float t0, float t1,
+                            bool at_origin) const;
 
   const Mesh& mesh_;
   bool importance_close_pairs_ = false;
@@ -117,6 +129,33 @@ class Visibility {
   std::vector<double> radius_;           // per element: largest centroid-to-corner distance
   double float_error_ = 0.0;             // rounding of coordinates to Embree's floats
   OwnPolygonFilter own_polygon_filter_ = OwnPolygonFilter::automatic;
+  // compute_end_neighbours: per element e, the elements of other polygons that reach within
+  // the skipped-end pieces' reach of e, each as a box and a slab (|normal . x - offset| <=
+  // thickness), listed from end_neighbours_first_[e] to end_neighbours_first_[e + 1]; and a
+  // grid of kEndSide x kEndSide cells over e's plane (u along `across`, v along `along`, h along
+  // `normal`, from `origin`), lo and hi bounding where e's pieces lie, whose rows (end_rows_
+  // from first_row, bit u) mark the cells a neighbour meets.
+  struct Box {
+    Vec3 lo, hi;
+  };
+  static constexpr int kEndSide = 64;
+  struct EndReach {
+    Vec3 origin, across, along, normal;
+    Vec3 lo, hi;            // in (u, v, h)
+    glm::dvec2 scale{0.0};  // cells per unit length in u and v
+    size_t first_row = 0;
+  };
+  struct Neighbour {
+    Vec3 lo, hi, normal;
+    double offset = 0.0, thickness = 0.0;
+  };
+  std::vector<EndReach> end_reach_;
+  std::vector<uint64_t> end_rows_;
+  double end_piece_reach_ = 0.0;  // the longest piece, plus rounding
+  std::vector<uint32_t> end_neighbours_first_;
+  std::vector<Neighbour> end_neighbours_;
+  bool end_prefilter_ = true;
+  mutable std::atomic<uint64_t> end_pieces_traced_{0}, end_pieces_cleared_{0};
   // V is kept in steps of 1/kSteps (2^14: 6e-5, exact for equal-weight fractions of up to 4096
   // rays), so that the memo below holds it in 15 bits and every row sees the same V.
   // remember_pairs: per unordered pair (index hi (hi - 1) / 2 + lo), 0 unknown, else V's steps
