@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 #include <glm/geometric.hpp>
+#include <iostream>
 #include <random>
 #include <vector>
 
@@ -65,8 +66,9 @@ TEST(StratifiedSampler, FloatBatchMatchesThePointsAndStaysOnTheElement) {
 }
 
 // sample_solid_angles repeats SolidAngleSampler lane by lane: the same bits on every path (in
-// front, behind, in the plane, near a corner, tiny fan triangles, every lane count), for the
-// vector code this machine runs. Any reordering of its arithmetic shows here.
+// front, behind, in the plane, near a corner, tiny fan triangles, every lane count), on every
+// instruction sets this processor has (each a separate vectorisation of the same body). Any
+// reordering of its arithmetic shows here.
 TEST(SolidAngleBatch, SameBitsAsTheSamplerOnEveryPath) {
   std::vector<std::vector<Vec3>> shapes = {
       {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0)},
@@ -79,7 +81,7 @@ TEST(SolidAngleBatch, SameBitsAsTheSamplerOnEveryPath) {
   shapes.push_back(disc);
   std::mt19937_64 random(5);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
-  size_t in_front = 0, away = 0;
+  size_t in_front = 0, away = 0, runs[3] = {0, 0, 0};
   for (const auto& shape : shapes) {
     const Vec3 normal = glm::normalize(glm::cross(shape[1] - shape[0], shape[2] - shape[0]));
     for (int trial = 0; trial < 300; ++trial) {
@@ -99,23 +101,31 @@ TEST(SolidAngleBatch, SameBitsAsTheSamplerOnEveryPath) {
         lanes.u[k] = trial % 7 == 0 ? 0.0 : unit(random);
         lanes.v[k] = trial % 11 == 0 ? 0.9999999999 : unit(random);
       }
-      sample_solid_angles(shape, normal, count, lanes);
-      for (int k = 0; k < count; ++k) {
-        const Vec3 x(lanes.x[0][k], lanes.x[1][k], lanes.x[2][k]);
-        const SolidAngleSampler sampler(x, shape, normal);
-        const Vec3 y = sampler.point(lanes.u[k], lanes.v[k]);
-        const double expected[4] = {y.x, y.y, y.z, sampler.solid_angle()};
-        const double got[4] = {lanes.y[0][k], lanes.y[1][k], lanes.y[2][k], lanes.omega[k]};
-        ASSERT_EQ(std::memcmp(expected, got, sizeof(got)), 0)
-            << shape.size() << " corners, trial " << trial << " lane " << k << ": (" << got[0]
-            << ", " << got[1] << ", " << got[2] << ", " << got[3] << ") against (" << y.x << ", "
-            << y.y << ", " << y.z << ", " << expected[3] << ")";
-        (sampler.solid_angle() > 0.0 ? in_front : away) += 1;
+      for (SamplerIsa isa : {SamplerIsa::baseline, SamplerIsa::avx2, SamplerIsa::avx512}) {
+        SolidAngleLanes out = lanes;
+        if (!sample_solid_angles_on(isa, shape, normal, count, out)) continue;
+        ++runs[int(isa)];
+        for (int k = 0; k < count; ++k) {
+          const Vec3 x(lanes.x[0][k], lanes.x[1][k], lanes.x[2][k]);
+          const SolidAngleSampler sampler(x, shape, normal);
+          const Vec3 y = sampler.point(lanes.u[k], lanes.v[k]);
+          const double expected[4] = {y.x, y.y, y.z, sampler.solid_angle()};
+          const double got[4] = {out.y[0][k], out.y[1][k], out.y[2][k], out.omega[k]};
+          ASSERT_EQ(std::memcmp(expected, got, sizeof(got)), 0)
+              << "instruction set " << int(isa) << ", " << shape.size() << " corners, trial "
+              << trial << " lane " << k << ": (" << got[0] << ", " << got[1] << ", " << got[2]
+              << ", " << got[3] << ") against (" << y.x << ", " << y.y << ", " << y.z << ", "
+              << expected[3] << ")";
+          (sampler.solid_angle() > 0.0 ? in_front : away) += 1;
+        }
       }
     }
   }
   EXPECT_GT(in_front, 3000u);
   EXPECT_GT(away, 300u);
+  EXPECT_GT(runs[int(SamplerIsa::baseline)], 0u);
+  if (runs[int(SamplerIsa::avx512)] == 0)
+    std::cout << "AVX-512 not on this processor: not tested\n";
 }
 
 // The own-polygon filter is left off only where no hit on i's or j's polygon can occur: V is the

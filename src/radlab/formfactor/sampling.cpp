@@ -214,9 +214,8 @@ inline double at_least_zero(double v) {
 // operation; every branch of theirs becomes a select at the end (all paths computed, the
 // divisions too: a lane whose divisor is 0 takes another path). glm's dot is (x x' + y y') +
 // z z', normalize multiplies by 1 / sqrt, cross is (y z' - y' z, z x' - z' x, x y' - x' y).
-[[gnu::target_clones("avx2", "default")]] void sample_solid_angles(std::span<const Vec3> c,
-                                                                   const Vec3& n, int count,
-                                                                   SolidAngleLanes& L) {
+[[gnu::always_inline]] inline void sample_lanes(std::span<const Vec3> c, const Vec3& n, int count,
+                                                SolidAngleLanes& L) {
   const size_t corners = c.size();
   const int lanes = std::clamp(count, 1, kLanes);
   for (int k = lanes; k < kLanes; ++k) {  // unused lanes repeat lane 0
@@ -378,6 +377,46 @@ inline double at_least_zero(double v) {
     L.y[2][k] = pick(c0.z, p1z[k], p2z[k], x2, dz);
     L.omega[k] = sees ? total[k] : 0.0;
   }
+}
+
+// The same body compiled for each instruction set (inlined, then vectorised for the caller's
+// target; no FMA contraction in any: CMakeLists.txt), chosen once by what the processor has.
+[[gnu::target("avx512f")]] void sample_lanes_avx512(std::span<const Vec3> c, const Vec3& n,
+                                                    int count, SolidAngleLanes& L) {
+  sample_lanes(c, n, count, L);
+}
+[[gnu::target("avx2")]] void sample_lanes_avx2(std::span<const Vec3> c, const Vec3& n, int count,
+                                               SolidAngleLanes& L) {
+  sample_lanes(c, n, count, L);
+}
+void sample_lanes_baseline(std::span<const Vec3> c, const Vec3& n, int count, SolidAngleLanes& L) {
+  sample_lanes(c, n, count, L);
+}
+
+bool sample_solid_angles_on(SamplerIsa isa, std::span<const Vec3> corners, const Vec3& normal,
+                            int count, SolidAngleLanes& lanes) {
+  switch (isa) {
+    case SamplerIsa::avx512:
+      if (!__builtin_cpu_supports("avx512f")) return false;
+      sample_lanes_avx512(corners, normal, count, lanes);
+      return true;
+    case SamplerIsa::avx2:
+      if (!__builtin_cpu_supports("avx2")) return false;
+      sample_lanes_avx2(corners, normal, count, lanes);
+      return true;
+    case SamplerIsa::baseline:
+      break;
+  }
+  sample_lanes_baseline(corners, normal, count, lanes);
+  return true;
+}
+
+void sample_solid_angles(std::span<const Vec3> corners, const Vec3& normal, int count,
+                         SolidAngleLanes& lanes) {
+  static const SamplerIsa best = __builtin_cpu_supports("avx512f") ? SamplerIsa::avx512
+                                 : __builtin_cpu_supports("avx2")  ? SamplerIsa::avx2
+                                                                   : SamplerIsa::baseline;
+  sample_solid_angles_on(best, corners, normal, count, lanes);
 }
 
 }  // namespace radlab

@@ -100,6 +100,11 @@ struct SolidAngleLanes {
 };
 void sample_solid_angles(std::span<const Vec3> corners, const Vec3& normal, int count,
                          SolidAngleLanes& lanes);
+// The same on a chosen instruction set (tests, benchmarks): false, doing nothing, where the
+// processor lacks it. sample_solid_angles takes the widest it has.
+enum class SamplerIsa { baseline, avx2, avx512 };
+bool sample_solid_angles_on(SamplerIsa isa, std::span<const Vec3> corners, const Vec3& normal,
+                            int count, SolidAngleLanes& lanes);
 
 // The solid angle of the triangle of unit vectors (a, b, c): Van Oosterom & Strackee (1983),
 // tan(Omega / 2) = |a . (b x c)| / (1 + a.b + b.c + c.a).

@@ -94,7 +94,10 @@ void Visibility::compute_end_neighbours() {
   end_neighbours_first_.assign(n + 1, 0);
   end_neighbours_.clear();
   end_rows_.assign(n * kEndSide, 0);
+  end_block_first_.assign(n * kEndBlocks + 1, 0);
+  end_block_neighbours_.clear();
   std::vector<uint32_t> found;
+  std::vector<uint64_t> block_masks;
   for (size_t e = 0; e < n; ++e) {
     // e's frame and region.
     EndReach& r = end_reach_[e];
@@ -159,8 +162,10 @@ void Visibility::compute_end_neighbours() {
     const glm::dvec2 size = 1.0 / r.scale;
     const glm::dvec2 slack =
         1e-6 * size + 1e-12 * (glm::abs(glm::dvec2(r.lo)) + glm::abs(glm::dvec2(r.hi)));
+    block_masks.clear();
     for (uint32_t k = end_neighbours_first_[e]; k < end_neighbours_first_[e + 1]; ++k) {
       const Neighbour& g = end_neighbours_[k];
+      uint64_t blocks = 0;  // the blocks of 8 x 8 cells where g marked a cell
       // The cells whose prisms may reach the neighbour's box: its corners' (u, v) range.
       glm::dvec2 gl(std::numeric_limits<double>::infinity()), gh(-gl);
       for (int corner = 0; corner < 8; ++corner) {
@@ -188,10 +193,23 @@ void Visibility::compute_end_neighbours() {
             const glm::dvec2 extent = range(r.origin[axis], coefficients(axis), q0, q1);
             inside = extent.x <= g.hi[axis] && extent.y >= g.lo[axis];
           }
-          if (inside) rows[y] |= uint64_t(1) << x;
+          if (inside) {
+            rows[y] |= uint64_t(1) << x;
+            blocks |= uint64_t(1) << (x / kEndBlock + (kEndSide / kEndBlock) * (y / kEndBlock));
+          }
         }
+      block_masks.push_back(blocks);
+    }
+    // Per block, the neighbours that marked a cell in it: a piece in a marked cell looks only
+    // at its block's.
+    for (int b = 0; b < kEndBlocks; ++b) {
+      end_block_first_[e * kEndBlocks + size_t(b)] = uint32_t(end_block_neighbours_.size());
+      for (uint32_t k = end_neighbours_first_[e]; k < end_neighbours_first_[e + 1]; ++k)
+        if ((block_masks[k - end_neighbours_first_[e]] >> b) & 1u)
+          end_block_neighbours_.push_back(k);
     }
   }
+  end_block_first_[n * kEndBlocks] = uint32_t(end_block_neighbours_.size());
 }
 
 // Whether the piece t in [t0, t1] of segment `lane`, next to element `end`, may be blocked: it
@@ -219,8 +237,10 @@ bool Visibility::piece_may_be_blocked(size_t end, const SegmentPacket& s, int la
   // The float ray's points at t0 and t1, in double (the products of two floats are exact).
   const Vec3 a = o + double(t0) * d, b = o + double(t1) * d;
   const Vec3 lo = glm::min(a, b), hi = glm::max(a, b);
-  for (uint32_t k = end_neighbours_first_[end]; k < end_neighbours_first_[end + 1]; ++k) {
-    const Neighbour& g = end_neighbours_[k];
+  const size_t block = end * kEndBlocks + size_t(cell.x / kEndBlock) +
+                       size_t(kEndSide / kEndBlock) * size_t(cell.y / kEndBlock);
+  for (uint32_t m = end_block_first_[block]; m < end_block_first_[block + 1]; ++m) {
+    const Neighbour& g = end_neighbours_[end_block_neighbours_[m]];
     if (glm::any(glm::lessThan(g.hi, lo)) || glm::any(glm::greaterThan(g.lo, hi))) continue;
     const double sa = glm::dot(g.normal, a) - g.offset, sb = glm::dot(g.normal, b) - g.offset;
     if (std::min(sa, sb) <= g.thickness && std::max(sa, sb) >= -g.thickness) return true;
@@ -652,6 +672,14 @@ int Visibility::trace_close(size_t lo, size_t hi, const FacingParts& parts, int 
   WeightedVisibility fraction;
   thread_local SolidAngleLanes toward;
   uint32_t lane_stratum[16], lane_bits[16];
+  // m is a power of two for the default ray counts (16 4^k): shifts for the divisions, and
+  // 1/m exact, so the same bits as dividing.
+  const bool power_of_two = (m & (m - 1)) == 0;
+  const uint32_t mask = uint32_t(m) - 1, shift = uint32_t(std::countr_zero(uint32_t(m)));
+  const double inverse_m = 1.0 / m;
+  const auto column = [&](uint32_t s) { return power_of_two ? s & mask : s % uint32_t(m); };
+  const auto row = [&](uint32_t s) { return power_of_two ? s >> shift : s / uint32_t(m); };
+  const auto per_side = [&](double t) { return power_of_two ? t * inverse_m : t / m; };
   for (int start = 0; start < R; start += 16) {
     const int count = std::min(16, R - start);
     packet.count = count;
@@ -660,30 +688,42 @@ int Visibility::trace_close(size_t lo, size_t hi, const FacingParts& parts, int 
       const uint32_t s_from = strata_from[k], s_to = strata_to[k];
       const uint64_t bits = mix64(key + k);
       const uint32_t bits_from = uint32_t(bits), bits_to = uint32_t(bits >> 32);
-      const Vec3 x = from.point(int(s_from % uint32_t(m)), int(s_from / uint32_t(m)), bits_from);
+      const Vec3 x = from.point(int(column(s_from)), int(row(s_from)), bits_from);
       toward.x[0][lane] = x.x, toward.x[1][lane] = x.y, toward.x[2][lane] = x.z;
-      toward.u[lane] = (s_to % uint32_t(m) + ((bits_to & 0xFFFFu) + 0.5) * 0x1p-16) / m;
-      toward.v[lane] = (s_to / uint32_t(m) + ((bits_to >> 16) + 0.5) * 0x1p-16) / m;
+      toward.u[lane] = per_side(column(s_to) + ((bits_to & 0xFFFFu) + 0.5) * 0x1p-16);
+      toward.v[lane] = per_side(row(s_to) + ((bits_to >> 16) + 0.5) * 0x1p-16);
       lane_stratum[lane] = s_from, lane_bits[lane] = bits_from;
     }
     // y_k drawn uniformly in the solid angle of the target's part seen from x_k.
     sample_solid_angles(to_part, n_to, count, toward);
-    for (int lane = 0; lane < count; ++lane) {
-      const Vec3 x(toward.x[0][lane], toward.x[1][lane], toward.x[2][lane]);
-      const Vec3 y(toward.y[0][lane], toward.y[1][lane], toward.y[2][lane]);
-      const Vec3 d = y - x;
-      const double length = glm::length(d);
-      const double cos_from = length > 0.0 ? std::max(0.0, glm::dot(n_from, d) / length) : 0.0;
-      weight[lane] = float(toward.omega[lane] * cos_from *
-                           from.area_weight(lane_stratum[lane], lane_bits[lane]));
-      packet.ox[lane] = float(x.x), packet.oy[lane] = float(x.y), packet.oz[lane] = float(x.z);
-      const float dx = float(d.x), dy = float(d.y), dz = float(d.z);
-      packet.dx[lane] = dx, packet.dy[lane] = dy, packet.dz[lane] = dz;
+    // The rays, lane arrays over all 16 (unused lanes repeat lane 0) so that the loops vectorise:
+    // glm's dot, length and std::max written out in their order of operations.
+    alignas(64) double along_from[16], along_to[16], cos_from[16];
+    for (int lane = 0; lane < 16; ++lane) {
+      const double dx = toward.y[0][lane] - toward.x[0][lane];
+      const double dy = toward.y[1][lane] - toward.x[1][lane];
+      const double dz = toward.y[2][lane] - toward.x[2][lane];
+      const double length = std::sqrt((dx * dx + dy * dy) + dz * dz);
+      along_from[lane] = (n_from.x * dx + n_from.y * dy) + n_from.z * dz;
+      along_to[lane] = (n_to.x * dx + n_to.y * dy) + n_to.z * dz;
+      const double cosine = along_from[lane] / length;
+      cos_from[lane] = length > 0.0 ? (0.0 < cosine ? cosine : 0.0) : 0.0;
+      packet.ox[lane] = float(toward.x[0][lane]), packet.oy[lane] = float(toward.x[1][lane]);
+      packet.oz[lane] = float(toward.x[2][lane]);
+      packet.dx[lane] = float(dx), packet.dy[lane] = float(dy), packet.dz[lane] = float(dz);
+    }
+    for (int lane = 0; lane < 16; ++lane) weight[lane] = float(toward.omega[lane] * cos_from[lane]);
+    if (!from.uniform())  // a clipped trapezoid: weigh by the points' density
+      for (int lane = 0; lane < count; ++lane)
+        weight[lane] = float(toward.omega[lane] * cos_from[lane] *
+                             from.area_weight(lane_stratum[lane], lane_bits[lane]));
+    for (int lane = 0; lane < 16; ++lane) {
       // The ends as in trace: far enough from each end's plane to leave its own polygon.
+      const float dx = packet.dx[lane], dy = packet.dy[lane], dz = packet.dz[lane];
       const float length2 = dx * dx + dy * dy + dz * dz;
       const float eps = length2 >= 1e-4f ? 1e-4f : 1e-6f / std::sqrt(std::max(length2, 1e-30f));
-      const float c_from = std::max(0.0f, float(glm::dot(n_from, d)));
-      const float c_to = std::max(0.0f, -float(glm::dot(n_to, d)));
+      const float c_from = std::max(0.0f, float(along_from[lane]));
+      const float c_to = std::max(0.0f, -float(along_to[lane]));
       packet.t_near[lane] = std::min(eps, std::max(lift_from / std::max(c_from, 1e-30f), 2.4e-7f));
       packet.t_far[lane] =
           1.0f - std::min(eps, std::max(lift_to / std::max(c_to, 1e-30f), 2.4e-7f));

@@ -139,6 +139,8 @@ class Visibility {
     Vec3 lo, hi;
   };
   static constexpr int kEndSide = 64;
+  static constexpr int kEndBlock = 8;  // cells a side of a block
+  static constexpr int kEndBlocks = (kEndSide / kEndBlock) * (kEndSide / kEndBlock);
   struct EndReach {
     Vec3 origin, across, along, normal;
     Vec3 lo, hi;            // in (u, v, h)
@@ -151,6 +153,10 @@ class Visibility {
   };
   std::vector<EndReach> end_reach_;
   std::vector<uint64_t> end_rows_;
+  // Per element and block of kEndBlock x kEndBlock cells (index e kEndBlocks + bx + 8 by), the
+  // neighbours that marked a cell in it: end_block_neighbours_ from end_block_first_[block] to
+  // end_block_first_[block + 1].
+  std::vector<uint32_t> end_block_first_, end_block_neighbours_;
   double end_piece_reach_ = 0.0;  // the longest piece, plus rounding
   std::vector<uint32_t> end_neighbours_first_;
   std::vector<Neighbour> end_neighbours_;
