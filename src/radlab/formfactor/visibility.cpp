@@ -52,7 +52,7 @@ Visibility::Visibility(const Scene& scene, const Mesh& mesh, int rays, uint64_t 
 // for most pieces none comes near, and they need no ray. A piece spans at most the reach
 // max(1e-4 diagonal, 1e-6 m) from its segment's end: t_near (and 1 - t_far) is at most 1e-4
 // on segments of 1 cm or more and at most 1e-6 m / |d| on shorter ones (trace, trace_close), |d|
-// at most the scene's diagonal. piece_may_be_blocked checks that bound and that the end lies in
+// at most the scene's diagonal. classify_pieces checks that bound and that the end lies in
 // e's region (below); a piece that fails either is traced.
 //
 // e's region: in e's frame (u along `across`, v along `along`, h along the normal, from its
@@ -212,33 +212,62 @@ void Visibility::compute_end_neighbours() {
   end_block_first_[n * kEndBlocks] = uint32_t(end_block_neighbours_.size());
 }
 
-// Whether the piece t in [t0, t1] of segment `lane`, next to element `end`, may be blocked: it
-// leaves end's reach, or it meets a listed neighbour's box and slab (compute_end_neighbours).
-bool Visibility::piece_may_be_blocked(size_t end, const SegmentPacket& s, int lane, float t0,
-                                      float t1, bool at_origin) const {
-  if (!end_prefilter_ || end_reach_.empty()) return true;
-  if (end_neighbours_first_[end] == end_neighbours_first_[end + 1]) return false;  // none near
-  const Vec3 o(s.ox[lane], s.oy[lane], s.oz[lane]), d(s.dx[lane], s.dy[lane], s.dz[lane]);
-  // The piece lies within the reach of the segment's end on `end` (its origin, or o + d), and
-  // that end in end's region shrunk by the reach (compute_end_neighbours).
-  const double span = at_origin ? double(t1) : 1.0 - double(t0);
-  if (!(span * span * glm::dot(d, d) * (1.0 + 1e-6) <= end_piece_reach_ * end_piece_reach_))
-    return true;
+// For every lane of `s`, what the grid says of its skipped piece next to `end` (at the segment's
+// origin, or at o + d): kPieceClear, kPieceMarked (in a marked cell: the neighbours of
+// block[lane] decide, piece_meets_a_neighbour) or kPieceTraced (longer than the reach, or its
+// end outside end's region shrunk by the reach: traced). The arithmetic runs over all 16 lanes
+// at once (unused lanes hold lane 0's values), so it vectorises.
+void Visibility::classify_pieces(const SegmentPacket& s, size_t end, bool at_origin, uint8_t* state,
+                                 uint32_t* block) const {
+  if (!end_prefilter_ || end_reach_.empty()) {
+    std::fill(state, state + 16, kPieceTraced);
+    return;
+  }
+  if (end_neighbours_first_[end] == end_neighbours_first_[end + 1]) {  // none near
+    std::fill(state, state + 16, kPieceClear);
+    return;
+  }
   const EndReach& r = end_reach_[end];
-  const Vec3 p = (at_origin ? o : o + d) - r.origin;
-  const Vec3 q(glm::dot(p, r.across), glm::dot(p, r.along), glm::dot(p, r.normal));
-  // Most pieces lie in cells that no neighbour meets (cells marked with the pieces' reach).
-  if (glm::any(glm::lessThan(q, r.lo + Vec3(end_piece_reach_))) ||
-      glm::any(glm::greaterThan(q, r.hi - Vec3(end_piece_reach_))))
-    return true;
-  const glm::ivec2 cell(glm::clamp((glm::dvec2(q) - glm::dvec2(r.lo)) * r.scale, glm::dvec2(0.0),
-                                   glm::dvec2(kEndSide - 1)));
-  if (!((end_rows_[r.first_row + size_t(cell.y)] >> cell.x) & 1u)) return false;
+  const double reach = end_piece_reach_;
+  alignas(64) int column[16], row[16], inside[16];
+  for (int k = 0; k < 16; ++k) {
+    const double dx = s.dx[k], dy = s.dy[k], dz = s.dz[k];
+    const double span = at_origin ? double(s.t_near[k]) : 1.0 - double(s.t_far[k]);
+    const bool short_piece =
+        span * span * ((dx * dx + dy * dy) + dz * dz) * (1.0 + 1e-6) <= reach * reach;
+    const double px = (at_origin ? double(s.ox[k]) : double(s.ox[k]) + dx) - r.origin.x;
+    const double py = (at_origin ? double(s.oy[k]) : double(s.oy[k]) + dy) - r.origin.y;
+    const double pz = (at_origin ? double(s.oz[k]) : double(s.oz[k]) + dz) - r.origin.z;
+    const double u = (px * r.across.x + py * r.across.y) + pz * r.across.z;
+    const double v = (px * r.along.x + py * r.along.y) + pz * r.along.z;
+    const double h = (px * r.normal.x + py * r.normal.y) + pz * r.normal.z;
+    inside[k] = short_piece & (u >= r.lo.x + reach) & (u <= r.hi.x - reach) &
+                (v >= r.lo.y + reach) & (v <= r.hi.y - reach) & (h >= r.lo.z + reach) &
+                (h <= r.hi.z - reach);
+    const double cu = (u - r.lo.x) * r.scale.x, cv = (v - r.lo.y) * r.scale.y;
+    column[k] = int(cu < 0.0 ? 0.0 : cu > kEndSide - 1.0 ? kEndSide - 1.0 : cu);
+    row[k] = int(cv < 0.0 ? 0.0 : cv > kEndSide - 1.0 ? kEndSide - 1.0 : cv);
+  }
+  const uint64_t* rows = end_rows_.data() + r.first_row;
+  for (int k = 0; k < s.count; ++k) {
+    if (!inside[k]) {
+      state[k] = kPieceTraced;
+      continue;
+    }
+    state[k] = (rows[row[k]] >> column[k]) & 1u ? kPieceMarked : kPieceClear;
+    block[k] = uint32_t(end * kEndBlocks) + uint32_t(column[k] / kEndBlock) +
+               uint32_t(kEndSide / kEndBlock) * uint32_t(row[k] / kEndBlock);
+  }
+}
+
+// Whether the piece t in [t0, t1] of segment `lane` meets the box and slab of a neighbour that
+// marked a cell of `block` (compute_end_neighbours).
+bool Visibility::piece_meets_a_neighbour(const SegmentPacket& s, int lane, float t0, float t1,
+                                         uint32_t block) const {
+  const Vec3 o(s.ox[lane], s.oy[lane], s.oz[lane]), d(s.dx[lane], s.dy[lane], s.dz[lane]);
   // The float ray's points at t0 and t1, in double (the products of two floats are exact).
   const Vec3 a = o + double(t0) * d, b = o + double(t1) * d;
   const Vec3 lo = glm::min(a, b), hi = glm::max(a, b);
-  const size_t block = end * kEndBlocks + size_t(cell.x / kEndBlock) +
-                       size_t(kEndSide / kEndBlock) * size_t(cell.y / kEndBlock);
   for (uint32_t m = end_block_first_[block]; m < end_block_first_[block + 1]; ++m) {
     const Neighbour& g = end_neighbours_[end_block_neighbours_[m]];
     if (glm::any(glm::lessThan(g.hi, lo)) || glm::any(glm::greaterThan(g.lo, hi))) continue;
@@ -500,9 +529,14 @@ void Visibility::trace_skipped_ends(const SegmentPacket& segments, bool* blocked
     pieces.count = 0;
   };
   uint64_t traced = 0, cleared = 0;
-  const auto add = [&](int lane, float t0, float t1, size_t end, bool at_origin) {
+  uint8_t near_state[16], far_state[16];
+  uint32_t near_block[16], far_block[16];
+  classify_pieces(segments, from, true, near_state, near_block);
+  classify_pieces(segments, to, false, far_state, far_block);
+  const auto add = [&](int lane, float t0, float t1, uint8_t state, uint32_t block) {
     if (!(t0 < t1)) return;
-    if (!piece_may_be_blocked(end, segments, lane, t0, t1, at_origin)) {
+    if (state == kPieceClear ||
+        (state == kPieceMarked && !piece_meets_a_neighbour(segments, lane, t0, t1, block))) {
       ++cleared;
       return;
     }
@@ -519,8 +553,8 @@ void Visibility::trace_skipped_ends(const SegmentPacket& segments, bool* blocked
   pieces.count = 0;
   for (int lane = 0; lane < segments.count; ++lane) {
     if (blocked[lane]) continue;
-    add(lane, kEnd, segments.t_near[lane], from, true);
-    add(lane, segments.t_far[lane], 1.0f - kEnd, to, false);
+    add(lane, kEnd, segments.t_near[lane], near_state[lane], near_block[lane]);
+    add(lane, segments.t_far[lane], 1.0f - kEnd, far_state[lane], far_block[lane]);
   }
   flush();
   if (traced) end_pieces_traced_.fetch_add(traced, std::memory_order_relaxed);

@@ -113,8 +113,11 @@ class Visibility {
   void trace_skipped_ends(const SegmentPacket& segments, bool* blocked, size_t from,
                           size_t to) const;
   void compute_end_neighbours();
-  bool piece_may_be_blocked(size_t end, const SegmentPacket& segments, int lane, float t0, float t1,
-                            bool at_origin) const;
+  static constexpr uint8_t kPieceClear = 0, kPieceMarked = 1, kPieceTraced = 2;
+  void classify_pieces(const SegmentPacket& segments, size_t end, bool at_origin, uint8_t* state,
+                       uint32_t* block) const;
+  bool piece_meets_a_neighbour(const SegmentPacket& segments, int lane, float t0, float t1,
+                               uint32_t block) const;
 
   const Mesh& mesh_;
   bool importance_close_pairs_ = false;
