@@ -17,13 +17,16 @@
 //                                   would meet its own planes by rounding); for the segments
 //                                   nothing blocked those pieces are traced again, ignoring only
 //                                   hits in the end's plane, so a wall the end touches blocks
-//                                   (trace_skipped_ends).
+//                                   (trace_skipped_ends) — only the pieces another polygon
+//                                   comes near: a grid per element over its plane says which
+//                                   (compute_end_neighbours; the same V, fewer rays).
 //
 // Close pairs (the larger element's radius above a quarter of the centroids' distance; raycast
 // only) draw each ray from a point of the smaller element to a point of the other drawn uniformly
-// in solid angle (trace_close), weighted Omega cos: bounded weights where uniform points on a huge
-// element near a small one carry weights spanning orders of magnitude. Every traced pair also
-// gets the standard error of its V (ratio_standard_error in visibility.cpp).
+// in solid angle (trace_close, 16 rays at once: sample_solid_angles), weighted Omega cos: bounded
+// weights where uniform points on a huge element near a small one carry weights spanning orders of
+// magnitude. Every traced pair also gets the standard error of its V (ratio_standard_error in
+// visibility.cpp).
 //
 // The points depend only on (seed, min(i,j), max(i,j)) — each element is clipped by the other's
 // plane whichever row asks — and the shaft decision only on the unordered pair, so V_ij = V_ji
