@@ -95,6 +95,8 @@ ExactFormFactors::ExactFormFactors(const Scene& scene, const Mesh& mesh, ExactOp
       element_rules_(mesh) {
   plane_epsilon_ = plane_epsilon(mesh);
   radius_ = element_radii(mesh);
+  corner_.reserve(mesh.vertex_index.size());
+  for (uint32_t v : mesh.vertex_index) corner_.push_back(mesh.vertices[v]);
   row_excess_.assign(mesh.size(), 0.0);
   if (is_convex_enclosure(scene)) {
     nothing_occludes_ = true;
@@ -166,18 +168,41 @@ double ExactFormFactors::pair(size_t i, size_t j, RowCost& cost) const {
   return reciprocal(pair_integral(j, i, cost), mesh_.area[j], mesh_.area[i]);
 }
 
+ExactFormFactors::Heights ExactFormFactors::heights(std::span<const Vec3> corners,
+                                                    const Vec3& point, const Vec3& normal) const {
+  Heights h;
+  for (const Vec3& v : corners) {
+    const double height = glm::dot(v - point, normal);
+    h.low = std::min(h.low, height);
+    h.high = std::max(h.high, height);
+    h.front = h.front || height > plane_epsilon_;
+    h.behind = h.behind || height < -plane_epsilon_;
+  }
+  return h;
+}
+
 double ExactFormFactors::pair_integral(size_t i, size_t j, RowCost& cost) const {
   if (i == j) return 0.0;
-  if (!pair_faces(mesh_, i, j, plane_epsilon_)) {
+  // pair_faces (raycast.h) from the heights unoccluded() needs anyway: the same dots.
+  const std::span<const Vec3> to = corners(j);
+  const Heights j_heights = heights(to, mesh_.centroid[i], mesh_.normal[i]);
+  const Heights i_heights =
+      j_heights.front ? heights(corners(i), mesh_.centroid[j], mesh_.normal[j]) : Heights{};
+  if (!j_heights.front || !i_heights.front) {
     ++cost.pairs_culled;
     return 0.0;
   }
-  thread_local std::vector<Vec3> from, to;
-  mesh_.corners(i, from);
-  mesh_.corners(j, to);
-  // Integrate only over the part of i in front of j's plane (no jump in the integrand).
-  const double kept = clip_to_front(from, mesh_.centroid[j], mesh_.normal[j], plane_epsilon_);
-  if (kept <= 0.0) return 0.0;
+  // Integrate only over the part of i in front of j's plane (no jump in the integrand). With no
+  // corner behind it, clip_to_front keeps all of i: i's corners are used in place.
+  std::span<const Vec3> from = corners(i);
+  double kept = 1.0;
+  thread_local std::vector<Vec3> clipped;
+  if (i_heights.behind) {
+    clipped.assign(from.begin(), from.end());
+    kept = clip_to_front(clipped, mesh_.centroid[j], mesh_.normal[j], plane_epsilon_);
+    if (kept <= 0.0) return 0.0;
+    from = clipped;
+  }
   if (shafts_) {
     thread_local std::vector<uint32_t> ids;
     shafts_->blockers(i, j, ids);
@@ -227,7 +252,9 @@ double ExactFormFactors::pair_integral(size_t i, size_t j, RowCost& cost) const 
       return f > 0.0 ? f : 0.0;
     }
   }
-  const double f = unoccluded(i, j, from, to, kept, cost);
+  const Heights from_heights =
+      i_heights.behind ? heights(from, mesh_.centroid[j], mesh_.normal[j]) : i_heights;
+  const double f = unoccluded(i, j, from, to, kept, from_heights, j_heights, cost);
   if (f <= 0.0) return 0.0;
   if (visibility_) return f * visibility_->fraction(i, j, cost);
   ++cost.pairs_unoccluded;
@@ -245,7 +272,8 @@ double ExactFormFactors::pair_integral(size_t i, size_t j, RowCost& cost) const 
 // the adaptive rule's 45 or more. Otherwise (touching or near pairs, no order up to
 // kMaxFixedOrder, or the rules disagree) the adaptive rule decides, as before.
 double ExactFormFactors::unoccluded(size_t i, size_t j, std::span<const Vec3> from,
-                                    std::span<const Vec3> to, double kept, RowCost& cost) const {
+                                    std::span<const Vec3> to, double kept, const Heights& i_heights,
+                                    const Heights& j_heights, RowCost& cost) const {
   const PolygonRef a{from, mesh_.normal[i]}, b{to, mesh_.normal[j]};
   const double gap = glm::distance(mesh_.centroid[i], mesh_.centroid[j]) - radius_[i] - radius_[j];
   const double diameter = 2.0 * radius_[i];
@@ -254,9 +282,7 @@ double ExactFormFactors::unoccluded(size_t i, size_t j, std::span<const Vec3> fr
     // linear, its mean the value at the kept part's centroid, and on the ellipse it grows by at
     // most sin(angle between the planes) per unit of i's diameter (pair_geometry.h's
     // grazing_scale, written out here because the double-area test below reuses its parts).
-    double height_max = 0.0;
-    for (const Vec3& v : from)
-      height_max = std::max(height_max, glm::dot(v - mesh_.centroid[j], mesh_.normal[j]));
+    const double height_max = i_heights.high;
     const Vec3 centre = kept < 1.0 ? geometry::centroid(from) : mesh_.centroid[i];
     const double height_mean = glm::dot(centre - mesh_.centroid[j], mesh_.normal[j]);
     const double slope = glm::length(glm::cross(mesh_.normal[i], mesh_.normal[j]));
@@ -264,14 +290,7 @@ double ExactFormFactors::unoccluded(size_t i, size_t j, std::span<const Vec3> fr
     // Both elements wholly in front of each other's planes: the double-area rule first
     // (double_area.h), orders m and m - 1 on both elements, m from the bound for the larger
     // element and the smaller of the two height scales, the same acceptance test.
-    double j_low = 1e300, j_max = 0.0, i_low = 1e300;
-    for (const Vec3& v : to) {
-      const double h = glm::dot(v - mesh_.centroid[i], mesh_.normal[i]);
-      j_low = std::min(j_low, h);
-      j_max = std::max(j_max, h);
-    }
-    for (const Vec3& v : from)
-      i_low = std::min(i_low, glm::dot(v - mesh_.centroid[j], mesh_.normal[j]));
+    const double j_low = j_heights.low, j_max = j_heights.high, i_low = i_heights.low;
     if (kept == 1.0 && i_low > plane_epsilon_ && j_low > plane_epsilon_) {
       const double both = 2.0 * std::max(radius_[i], radius_[j]);
       const double h_mean = glm::dot(mesh_.centroid[j] - mesh_.centroid[i], mesh_.normal[i]);

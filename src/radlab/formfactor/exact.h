@@ -143,8 +143,26 @@ class ExactFormFactors final : public FormFactorMethod {
   std::vector<double> radius_;              // each element's largest centroid-corner distance
   FixedOrderRule order_rule_;               // Bernstein-bound Gauss order for separated pairs
   ElementRules element_rules_;              // Gauss rules of every element (double-area pairs)
+  // Every element's corners back to back (at mesh_.first_vertex): a pair whose elements need no
+  // clipping reads them in place instead of copying them (Mesh::corners) for every pair.
+  std::vector<Vec3> corner_;
+  std::span<const Vec3> corners(size_t e) const {
+    return {corner_.data() + mesh_.first_vertex[e],
+            mesh_.first_vertex[e + 1] - mesh_.first_vertex[e]};
+  }
+  // The heights of one element's corners above the other's plane, from one pass over them: what
+  // pair_faces, clip_to_front and the Bernstein order each computed again from the same dots.
+  struct Heights {
+    double low = 1e300;   // the least height
+    double high = 0.0;    // the greatest, or 0 when every corner lies below
+    bool front = false;   // some corner more than plane_epsilon_ in front
+    bool behind = false;  // some corner more than plane_epsilon_ behind
+  };
+  Heights heights(std::span<const Vec3> corners, const Vec3& point, const Vec3& normal) const;
+  // i_heights: `from`'s above j's plane; j_heights: `to`'s above i's plane.
   double unoccluded(size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to,
-                    double kept, RowCost& cost) const;
+                    double kept, const Heights& i_heights, const Heights& j_heights,
+                    RowCost& cost) const;
   double clipped_pair(size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to,
                       std::span<const Occluder> occluders, double floor, long long max_evaluations,
                       RowCost& cost, double* error) const;
