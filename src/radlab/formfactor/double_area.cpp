@@ -40,21 +40,23 @@ namespace {
 }
 
 // Rules of NA and NB points (compile-time sizes: every loop unrolled and vectorised). The same
-// operations in the same order as the general loop below, so the same bits.
+// operations in the same order as the general loop below, so the same bits: each point k of i
+// sums its terms over l in order, then the points' weighted sums are added in order. The loops
+// run over l outside and k inside, so the NA running sums are one vector (no horizontal sum
+// a point).
 template <size_t NA, size_t NB>
 [[gnu::always_inline]] inline double double_area_fixed(const ElementRules::Rule& a, const Vec3& n_i,
                                                        const ElementRules::Rule& b,
                                                        const Vec3& n_j) {
-  double sum = 0.0;
-  for (size_t k = 0; k < NA; ++k) {
-    const double ax = a.x[k], ay = a.y[k], az = a.z[k];
-    double term[NB];
-    for (size_t l = 0; l < NB; ++l)
-      term[l] = kernel_term(ax, ay, az, b.x[l], b.y[l], b.z[l], b.w[l], n_i, n_j);
-    double inner = 0.0;
-    for (size_t l = 0; l < NB; ++l) inner += term[l];
-    sum += a.w[k] * inner;
+  double inner[NA];
+  for (size_t k = 0; k < NA; ++k) inner[k] = 0.0;
+  for (size_t l = 0; l < NB; ++l) {
+    const double bx = b.x[l], by = b.y[l], bz = b.z[l], bw = b.w[l];
+    for (size_t k = 0; k < NA; ++k)
+      inner[k] += kernel_term(a.x[k], a.y[k], a.z[k], bx, by, bz, bw, n_i, n_j);
   }
+  double sum = 0.0;
+  for (size_t k = 0; k < NA; ++k) sum += a.w[k] * inner[k];
   return sum;
 }
 
