@@ -60,26 +60,23 @@ template <size_t NA, size_t NB>
   return sum;
 }
 
-}  // namespace
-
 // The terms of one point of i against a block of j's points first (a loop without a reduction,
 // which GCC vectorises; AVX2 where the CPU has it, without FMA so every CPU gets the same bits),
 // then their sum in order. Quads and triangles have m^2 points at order m, so the common sizes
 // (1, 4, 9, 16 on both sides) take loops of fixed length: with the general loop's bounds known
 // only at run time, its set-up outweighed the 16 or 81 terms of orders 2 and 3.
-[[gnu::target_clones("avx2", "default")]] double double_area_form_factor(
-    const ElementRules::Rule& a, const Vec3& n_i, const ElementRules::Rule& b, const Vec3& n_j,
-    double area_j) {
+[[gnu::always_inline]] inline double double_area_sum(const ElementRules::Rule& a, const Vec3& n_i,
+                                                     const ElementRules::Rule& b, const Vec3& n_j) {
   if (a.count == b.count) {
     switch (a.count) {
       case 1:
-        return double_area_fixed<1, 1>(a, n_i, b, n_j) * area_j / std::numbers::pi;
+        return double_area_fixed<1, 1>(a, n_i, b, n_j);
       case 4:
-        return double_area_fixed<4, 4>(a, n_i, b, n_j) * area_j / std::numbers::pi;
+        return double_area_fixed<4, 4>(a, n_i, b, n_j);
       case 9:
-        return double_area_fixed<9, 9>(a, n_i, b, n_j) * area_j / std::numbers::pi;
+        return double_area_fixed<9, 9>(a, n_i, b, n_j);
       case 16:
-        return double_area_fixed<16, 16>(a, n_i, b, n_j) * area_j / std::numbers::pi;
+        return double_area_fixed<16, 16>(a, n_i, b, n_j);
       default:
         break;
     }
@@ -99,7 +96,27 @@ template <size_t NA, size_t NB>
     }
     sum += a.w[k] * inner;
   }
-  return sum * area_j / std::numbers::pi;
+  return sum;
+}
+
+}  // namespace
+
+[[gnu::target_clones("avx2", "default")]] double double_area_form_factor(
+    const ElementRules::Rule& a, const Vec3& n_i, const ElementRules::Rule& b, const Vec3& n_j,
+    double area_j) {
+  return double_area_sum(a, n_i, b, n_j) * area_j / std::numbers::pi;
+}
+
+// The pair most separated pairs take, orders 2 and 1 on quads (16 terms and 1), with no switch.
+[[gnu::target_clones("avx2", "default")]] DoubleAreaPair double_area_pair(
+    const ElementRules::Rule& a_high, const ElementRules::Rule& b_high,
+    const ElementRules::Rule& a_low, const ElementRules::Rule& b_low, const Vec3& n_i,
+    const Vec3& n_j, double area_j) {
+  if (a_high.count == 4 && b_high.count == 4 && a_low.count == 1 && b_low.count == 1)
+    return {double_area_fixed<4, 4>(a_high, n_i, b_high, n_j) * area_j / std::numbers::pi,
+            double_area_fixed<1, 1>(a_low, n_i, b_low, n_j) * area_j / std::numbers::pi};
+  return {double_area_sum(a_high, n_i, b_high, n_j) * area_j / std::numbers::pi,
+          double_area_sum(a_low, n_i, b_low, n_j) * area_j / std::numbers::pi};
 }
 
 }  // namespace radlab

@@ -48,4 +48,13 @@ class ElementRules {
 double double_area_form_factor(const ElementRules::Rule& a, const Vec3& n_i,
                                const ElementRules::Rule& b, const Vec3& n_j, double area_j);
 
+// The two rules of the acceptance test at once (exact.cpp: orders m and m - 1 on both elements),
+// each the same bits as double_area_form_factor; one call instead of two.
+struct DoubleAreaPair {
+  double high, low;
+};
+DoubleAreaPair double_area_pair(const ElementRules::Rule& a_high, const ElementRules::Rule& b_high,
+                                const ElementRules::Rule& a_low, const ElementRules::Rule& b_low,
+                                const Vec3& n_i, const Vec3& n_j, double area_j);
+
 }  // namespace radlab

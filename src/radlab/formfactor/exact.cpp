@@ -168,8 +168,8 @@ double ExactFormFactors::pair(size_t i, size_t j, RowCost& cost) const {
   return reciprocal(pair_integral(j, i, cost), mesh_.area[j], mesh_.area[i]);
 }
 
-ExactFormFactors::Heights ExactFormFactors::heights(std::span<const Vec3> corners,
-                                                    const Vec3& point, const Vec3& normal) const {
+[[gnu::always_inline]] inline ExactFormFactors::Heights ExactFormFactors::heights(
+    std::span<const Vec3> corners, const Vec3& point, const Vec3& normal) const {
   Heights h;
   for (const Vec3& v : corners) {
     const double height = glm::dot(v - point, normal);
@@ -299,15 +299,14 @@ double ExactFormFactors::unoccluded(size_t i, size_t j, std::span<const Vec3> fr
       const int m = order_rule_.order(gap, both, scale);
       if (m > 0 && m <= ElementRules::kMaxOrder) {
         const int order = std::max(2, m);
-        auto rule = [&](size_t e, int o) { return element_rules_.rule(e, o); };
-        const double high = double_area_form_factor(rule(i, order), mesh_.normal[i], rule(j, order),
-                                                    mesh_.normal[j], mesh_.area[j]);
-        const double low =
-            double_area_form_factor(rule(i, order - 1), mesh_.normal[i], rule(j, order - 1),
-                                    mesh_.normal[j], mesh_.area[j]);
+        const ElementRules::Rule i_high = element_rules_.rule(i, order),
+                                 i_low_rule = element_rules_.rule(i, order - 1);
+        const auto [high, low] = double_area_pair(i_high, element_rules_.rule(j, order), i_low_rule,
+                                                  element_rules_.rule(j, order - 1),
+                                                  mesh_.normal[i], mesh_.normal[j], mesh_.area[j]);
         // Counted as the points of i at which an inner sum over j stands in for F_{dx->j}
         // (what a kernel evaluation is elsewhere), not the m^4 cheap terms.
-        cost.kernel_evaluations += uint64_t(rule(i, order).count + rule(i, order - 1).count);
+        cost.kernel_evaluations += uint64_t(i_high.count + i_low_rule.count);
         if (std::abs(high - low) <= options_.tolerance * std::abs(high)) return high;
       }
     }
