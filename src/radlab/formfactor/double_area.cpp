@@ -15,15 +15,13 @@ ElementRules::ElementRules(const Mesh& mesh) {
   for (size_t e = 0; e < mesh.size(); ++e) {
     mesh.corners(e, corners);
     for (int order = 1; order <= kMaxOrder; ++order) {
-      start_.push_back(w_.size());
+      start_.push_back(data_.size());
       element_quadrature(corners, order, rule);
-      x_.insert(x_.end(), rule.x.begin(), rule.x.end());
-      y_.insert(y_.end(), rule.y.begin(), rule.y.end());
-      z_.insert(z_.end(), rule.z.begin(), rule.z.end());
-      w_.insert(w_.end(), rule.weight.begin(), rule.weight.end());
+      for (const std::vector<double>* v : {&rule.x, &rule.y, &rule.z, &rule.weight})
+        data_.insert(data_.end(), v->begin(), v->end());
     }
   }
-  start_.push_back(w_.size());
+  start_.push_back(data_.size());
 }
 
 namespace {

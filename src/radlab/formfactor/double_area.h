@@ -35,13 +35,19 @@ class ElementRules {
   };
   Rule rule(size_t e, int order) const {
     const size_t k = e * kMaxOrder + size_t(order - 1);
-    const size_t s = start_[k];
-    return {x_.data() + s, y_.data() + s, z_.data() + s, w_.data() + s, start_[k + 1] - s};
+    const size_t s = start_[k], count = (start_[k + 1] - s) / 4;
+    const double* x = data_.data() + s;
+    return {x, x + count, x + 2 * count, x + 3 * count, count};
   }
 
  private:
-  std::vector<double> x_, y_, z_, w_;
-  std::vector<uint64_t> start_;  // first point of (element, order), one past the last at the end
+  // One block per (element, order): the rule's x, then y, z and the weights, the blocks of an
+  // element back to back, lowest order first. A pair reads its two rules from one place (orders 2
+  // and 1 of a quad: 160 bytes, three cache lines) instead of from four arrays of every element's
+  // points: with those the loads of the next element's points were the double-area rule's
+  // slowest instructions.
+  std::vector<double> data_;
+  std::vector<uint64_t> start_;  // first value of (element, order), one past the last at the end
 };
 
 // (A_j / π) Σ_k Σ_l w_k v_l (n_i·d)(−n_j·d)/|d|⁴ over the rules a (on i) and b (on j).
