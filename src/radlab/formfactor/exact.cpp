@@ -261,6 +261,87 @@ double ExactFormFactors::pair_integral(size_t i, size_t j, RowCost& cost) const 
   return f;
 }
 
+[[gnu::always_inline]] inline int ExactFormFactors::double_area_order(
+    size_t i, size_t j, double gap, const Heights& i_heights, const Heights& j_heights) const {
+  // unoccluded()'s height_mean and slope (kept == 1: the centre is i's centroid).
+  const double height_mean = glm::dot(mesh_.centroid[i] - mesh_.centroid[j], mesh_.normal[j]);
+  const double slope = glm::length(glm::cross(mesh_.normal[i], mesh_.normal[j]));
+  const double both = 2.0 * std::max(radius_[i], radius_[j]);
+  const double h_mean = glm::dot(mesh_.centroid[j] - mesh_.centroid[i], mesh_.normal[i]);
+  const double scale = std::min(height_mean / (i_heights.high + slope * both),
+                                h_mean / (j_heights.high + slope * both));
+  return order_rule_.order(gap, both, scale);
+}
+
+[[gnu::always_inline]] inline bool ExactFormFactors::double_area(size_t i, size_t j, int m,
+                                                                 double& f,
+                                                                 uint64_t& evaluations) const {
+  const int order = std::max(2, m);
+  const ElementRules::Rule i_high = element_rules_.rule(i, order),
+                           i_low = element_rules_.rule(i, order - 1);
+  const auto [high, low] = double_area_pair(i_high, element_rules_.rule(j, order), i_low,
+                                            element_rules_.rule(j, order - 1), mesh_.normal[i],
+                                            mesh_.normal[j], mesh_.area[j]);
+  // Counted as the points of i at which an inner sum over j stands in for F_{dx->j} (what a
+  // kernel evaluation is elsewhere), not the m^4 cheap terms.
+  evaluations = uint64_t(i_high.count + i_low.count);
+  f = high;
+  return std::abs(high - low) <= options_.tolerance * std::abs(high);
+}
+
+// pair_integral's steps up to the double-area order, for a pair it would integrate unclipped.
+[[gnu::always_inline]] inline int ExactFormFactors::separated_order(size_t a, size_t b) const {
+  const Heights b_heights = heights(corners(b), mesh_.centroid[a], mesh_.normal[a]);
+  if (!b_heights.front) return -1;
+  const Heights a_heights = heights(corners(a), mesh_.centroid[b], mesh_.normal[b]);
+  if (!a_heights.front) return -1;
+  if (a_heights.behind) return 0;
+  const double gap = glm::distance(mesh_.centroid[a], mesh_.centroid[b]) - radius_[a] - radius_[b];
+  if (!(gap > 0.0 && a_heights.low > plane_epsilon_ && b_heights.low > plane_epsilon_)) return 0;
+  return double_area_order(a, b, gap, a_heights, b_heights);
+}
+
+void ExactFormFactors::upper_row(size_t i, std::span<double> out, RowCost& cost) const {
+  const size_t n = mesh_.size();
+  auto general = [&](size_t j) {
+    return integrates_from(mesh_, i, j) ? pair_integral(i, j, cost) : pair_integral(j, i, cost);
+  };
+  if (shafts_ || visibility_) {  // every pair may need clipping or rays
+    for (size_t j = i + 1; j < n; ++j) out[j] = general(j);
+    return;
+  }
+  constexpr size_t kBatch = 8;
+  for (size_t first = i + 1; first < n; first += kBatch) {
+    const size_t count = std::min(kBatch, n - first);
+    int order[kBatch];
+    for (size_t k = 0; k < count; ++k) {
+      const size_t j = first + k;
+      order[k] = integrates_from(mesh_, i, j) ? separated_order(i, j) : separated_order(j, i);
+    }
+    for (size_t k = 0; k < count; ++k) {
+      const size_t j = first + k;
+      if (order[k] < 0) {
+        ++cost.pairs_culled;
+        out[j] = 0.0;
+        continue;
+      }
+      if (order[k] > 0 && order[k] <= ElementRules::kMaxOrder) {
+        const bool from_i = integrates_from(mesh_, i, j);
+        double f = 0.0;
+        uint64_t evaluations = 0;
+        if (double_area(from_i ? i : j, from_i ? j : i, order[k], f, evaluations)) {
+          // What pair_integral does with unoccluded()'s value (no visibility here).
+          cost.kernel_evaluations += evaluations;
+          if (f > 0.0) ++cost.pairs_unoccluded;
+          out[j] = f > 0.0 ? f : 0.0;
+          continue;
+        }
+      }
+      out[j] = general(j);  // from the start: its costs as pair_integral counts them
+    }
+  }
+}
+
 // F_ij without occluders for the part `from` of i in front of j's plane (the fraction `kept`).
 // Separated pairs first try two fixed Gauss rules: the order m the Bernstein bound asks for
 // (FixedOrderRule, polygon_integral.h; as raycast chooses it, with the integrand's size on the
@@ -271,9 +352,9 @@ double ExactFormFactors::pair_integral(size_t i, size_t j, RowCost& cost) const 
 // difference, at m^2 + (m-1)^2 evaluations (5 to 13 on most pairs of a room at 1e-2) instead of
 // the adaptive rule's 45 or more. Otherwise (touching or near pairs, no order up to
 // kMaxFixedOrder, or the rules disagree) the adaptive rule decides, as before.
-double ExactFormFactors::unoccluded(size_t i, size_t j, std::span<const Vec3> from,
-                                    std::span<const Vec3> to, double kept, const Heights& i_heights,
-                                    const Heights& j_heights, RowCost& cost) const {
+[[gnu::always_inline]] inline double ExactFormFactors::unoccluded(
+    size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to, double kept,
+    const Heights& i_heights, const Heights& j_heights, RowCost& cost) const {
   const PolygonRef a{from, mesh_.normal[i]}, b{to, mesh_.normal[j]};
   const double gap = glm::distance(mesh_.centroid[i], mesh_.centroid[j]) - radius_[i] - radius_[j];
   const double diameter = 2.0 * radius_[i];
@@ -290,24 +371,14 @@ double ExactFormFactors::unoccluded(size_t i, size_t j, std::span<const Vec3> fr
     // Both elements wholly in front of each other's planes: the double-area rule first
     // (double_area.h), orders m and m - 1 on both elements, m from the bound for the larger
     // element and the smaller of the two height scales, the same acceptance test.
-    const double j_low = j_heights.low, j_max = j_heights.high, i_low = i_heights.low;
-    if (kept == 1.0 && i_low > plane_epsilon_ && j_low > plane_epsilon_) {
-      const double both = 2.0 * std::max(radius_[i], radius_[j]);
-      const double h_mean = glm::dot(mesh_.centroid[j] - mesh_.centroid[i], mesh_.normal[i]);
-      const double scale =
-          std::min(height_mean / (height_max + slope * both), h_mean / (j_max + slope * both));
-      const int m = order_rule_.order(gap, both, scale);
+    if (kept == 1.0 && i_heights.low > plane_epsilon_ && j_heights.low > plane_epsilon_) {
+      const int m = double_area_order(i, j, gap, i_heights, j_heights);
       if (m > 0 && m <= ElementRules::kMaxOrder) {
-        const int order = std::max(2, m);
-        const ElementRules::Rule i_high = element_rules_.rule(i, order),
-                                 i_low_rule = element_rules_.rule(i, order - 1);
-        const auto [high, low] = double_area_pair(i_high, element_rules_.rule(j, order), i_low_rule,
-                                                  element_rules_.rule(j, order - 1),
-                                                  mesh_.normal[i], mesh_.normal[j], mesh_.area[j]);
-        // Counted as the points of i at which an inner sum over j stands in for F_{dx->j}
-        // (what a kernel evaluation is elsewhere), not the m^4 cheap terms.
-        cost.kernel_evaluations += uint64_t(i_high.count + i_low_rule.count);
-        if (std::abs(high - low) <= options_.tolerance * std::abs(high)) return high;
+        double f = 0.0;
+        uint64_t evaluations = 0;
+        const bool agree = double_area(i, j, m, f, evaluations);
+        cost.kernel_evaluations += evaluations;
+        if (agree) return f;
       }
     }
     const int bound = order_rule_.order(gap, diameter, scale_i);

@@ -105,6 +105,12 @@ class ExactFormFactors final : public FormFactorMethod {
   double pair(size_t i, size_t j, RowCost& cost) const;
   // F_ij integrated over element i whatever the areas (the one-way integral pair() orients).
   double pair_integral(size_t i, size_t j, RowCost& cost) const;
+  // For every j in (i, n): out[j] = the pair's integral over its integrated side a
+  // (integrates_from), pair_integral(a, b), the same bits and costs. The pairs of a batch take
+  // their set-up (heights, gap, the double-area order: square roots and divisions in a chain)
+  // one after the other before any is integrated, so the chains overlap instead of stalling
+  // each pair (build_matrix_symmetric's rows).
+  void upper_row(size_t i, std::span<double> out, RowCost& cost) const;
   // Whether pair(i, j) integrates over i (true) or over j and scales by A_j / A_i (false).
   static bool integrates_from(const Mesh& mesh, size_t i, size_t j) {
     return mesh.area[i] < mesh.area[j] || (mesh.area[i] == mesh.area[j] && i < j);
@@ -159,6 +165,17 @@ class ExactFormFactors final : public FormFactorMethod {
     bool behind = false;  // some corner more than plane_epsilon_ behind
   };
   Heights heights(std::span<const Vec3> corners, const Vec3& point, const Vec3& normal) const;
+  // The double-area rule's order for the pair (i, j), both wholly in front of each other's
+  // planes and `gap` apart: the Bernstein bound for the larger element and the smaller of the
+  // two height scales (0 when no fixed order suffices).
+  int double_area_order(size_t i, size_t j, double gap, const Heights& i_heights,
+                        const Heights& j_heights) const;
+  // Orders m and m - 1 (at least 2 and 1) on both elements: whether they agree within
+  // `tolerance`, the order-m value in f and the evaluations spent.
+  bool double_area(size_t i, size_t j, int m, double& f, uint64_t& evaluations) const;
+  // upper_row's set-up of the pair (a, b): -1 culled (pair_faces), m > 0 the double-area order
+  // (neither element clipped, apart), 0 otherwise (pair_integral decides).
+  int separated_order(size_t a, size_t b) const;
   // i_heights: `from`'s above j's plane; j_heights: `to`'s above i's plane.
   double unoccluded(size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to,
                     double kept, const Heights& i_heights, const Heights& j_heights,

@@ -95,17 +95,14 @@ FormFactorMatrix build_matrix_symmetric(const ExactFormFactors& method, const Me
     row.assign(n, 0.0);
     RowCost& cost = costs.local();
     for (size_t i = r.begin(); i != r.end(); ++i) {
-      for (size_t j = i + 1; j < n; ++j) {
-        // Each pair's classes count for both of its entries, its work once.
-        RowCost one;
-        const bool from_i = ExactFormFactors::integrates_from(mesh, i, j);
-        row[j] = from_i ? method.pair_integral(i, j, one) : method.pair_integral(j, i, one);
-        cost.rays += one.rays;
-        cost.kernel_evaluations += one.kernel_evaluations;
-        cost.pairs_culled += 2 * one.pairs_culled;
-        cost.pairs_unoccluded += 2 * one.pairs_unoccluded;
-        cost.pairs_traced += 2 * one.pairs_traced;
-      }
+      // Each pair's classes count for both of its entries, its work once.
+      RowCost one;
+      method.upper_row(i, row, one);
+      cost.rays += one.rays;
+      cost.kernel_evaluations += one.kernel_evaluations;
+      cost.pairs_culled += 2 * one.pairs_culled;
+      cost.pairs_unoccluded += 2 * one.pairs_unoccluded;
+      cost.pairs_traced += 2 * one.pairs_traced;
       upper.set_row(i, row);
       std::fill(row.begin() + std::ptrdiff_t(i) + 1, row.end(), 0.0);
       const size_t now = done += n - 1 - i;
