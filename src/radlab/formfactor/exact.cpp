@@ -261,15 +261,22 @@ double ExactFormFactors::pair_integral(size_t i, size_t j, RowCost& cost) const 
   return f;
 }
 
-[[gnu::always_inline]] inline int ExactFormFactors::double_area_order(
-    size_t i, size_t j, double gap, const Heights& i_heights, const Heights& j_heights) const {
+[[gnu::always_inline]] inline double ExactFormFactors::double_area_scale(size_t i, size_t j,
+                                                                         double i_high,
+                                                                         double j_high,
+                                                                         double& both) const {
   // unoccluded()'s height_mean and slope (kept == 1: the centre is i's centroid).
   const double height_mean = glm::dot(mesh_.centroid[i] - mesh_.centroid[j], mesh_.normal[j]);
   const double slope = glm::length(glm::cross(mesh_.normal[i], mesh_.normal[j]));
-  const double both = 2.0 * std::max(radius_[i], radius_[j]);
+  both = 2.0 * std::max(radius_[i], radius_[j]);
   const double h_mean = glm::dot(mesh_.centroid[j] - mesh_.centroid[i], mesh_.normal[i]);
-  const double scale = std::min(height_mean / (i_heights.high + slope * both),
-                                h_mean / (j_heights.high + slope * both));
+  return std::min(height_mean / (i_high + slope * both), h_mean / (j_high + slope * both));
+}
+
+[[gnu::always_inline]] inline int ExactFormFactors::double_area_order(
+    size_t i, size_t j, double gap, const Heights& i_heights, const Heights& j_heights) const {
+  double both = 0.0;
+  const double scale = double_area_scale(i, j, i_heights.high, j_heights.high, both);
   return order_rule_.order(gap, both, scale);
 }
 
@@ -289,18 +296,6 @@ double ExactFormFactors::pair_integral(size_t i, size_t j, RowCost& cost) const 
   return std::abs(high - low) <= options_.tolerance * std::abs(high);
 }
 
-// pair_integral's steps up to the double-area order, for a pair it would integrate unclipped.
-[[gnu::always_inline]] inline int ExactFormFactors::separated_order(size_t a, size_t b) const {
-  const Heights b_heights = heights(corners(b), mesh_.centroid[a], mesh_.normal[a]);
-  if (!b_heights.front) return -1;
-  const Heights a_heights = heights(corners(a), mesh_.centroid[b], mesh_.normal[b]);
-  if (!a_heights.front) return -1;
-  if (a_heights.behind) return 0;
-  const double gap = glm::distance(mesh_.centroid[a], mesh_.centroid[b]) - radius_[a] - radius_[b];
-  if (!(gap > 0.0 && a_heights.low > plane_epsilon_ && b_heights.low > plane_epsilon_)) return 0;
-  return double_area_order(a, b, gap, a_heights, b_heights);
-}
-
 void ExactFormFactors::upper_row(size_t i, std::span<double> out, RowCost& cost) const {
   const size_t n = mesh_.size();
   auto general = [&](size_t j) {
@@ -310,14 +305,41 @@ void ExactFormFactors::upper_row(size_t i, std::span<double> out, RowCost& cost)
     for (size_t j = i + 1; j < n; ++j) out[j] = general(j);
     return;
   }
+  // pair_integral's steps up to the double-area order in three passes over the batch, each
+  // short and without a chain from one pair to the next: the heights (culled: -1; clipped, or
+  // touching a plane: 0, pair_integral decides), then gap and height scale (two square roots,
+  // three divisions), then the order.
   constexpr size_t kBatch = 8;
+  size_t a[kBatch], b[kBatch];
+  int order[kBatch];
+  double a_high[kBatch], b_high[kBatch], gap[kBatch], both[kBatch], scale[kBatch];
   for (size_t first = i + 1; first < n; first += kBatch) {
     const size_t count = std::min(kBatch, n - first);
-    int order[kBatch];
     for (size_t k = 0; k < count; ++k) {
       const size_t j = first + k;
-      order[k] = integrates_from(mesh_, i, j) ? separated_order(i, j) : separated_order(j, i);
+      const bool from_i = integrates_from(mesh_, i, j);
+      a[k] = from_i ? i : j;
+      b[k] = from_i ? j : i;
+      const Heights b_heights = heights(corners(b[k]), mesh_.centroid[a[k]], mesh_.normal[a[k]]);
+      const Heights a_heights =
+          b_heights.front ? heights(corners(a[k]), mesh_.centroid[b[k]], mesh_.normal[b[k]])
+                          : Heights{};
+      a_high[k] = a_heights.high;
+      b_high[k] = b_heights.high;
+      order[k] =
+          !(b_heights.front && a_heights.front) ? -1
+          : !a_heights.behind && a_heights.low > plane_epsilon_ && b_heights.low > plane_epsilon_
+              ? 1
+              : 0;
     }
+    for (size_t k = 0; k < count; ++k) {
+      // unoccluded()'s gap
+      gap[k] =
+          glm::distance(mesh_.centroid[a[k]], mesh_.centroid[b[k]]) - radius_[a[k]] - radius_[b[k]];
+      scale[k] = double_area_scale(a[k], b[k], a_high[k], b_high[k], both[k]);
+    }
+    for (size_t k = 0; k < count; ++k)
+      if (order[k] > 0) order[k] = gap[k] > 0.0 ? order_rule_.order(gap[k], both[k], scale[k]) : 0;
     for (size_t k = 0; k < count; ++k) {
       const size_t j = first + k;
       if (order[k] < 0) {
@@ -326,10 +348,9 @@ void ExactFormFactors::upper_row(size_t i, std::span<double> out, RowCost& cost)
         continue;
       }
       if (order[k] > 0 && order[k] <= ElementRules::kMaxOrder) {
-        const bool from_i = integrates_from(mesh_, i, j);
         double f = 0.0;
         uint64_t evaluations = 0;
-        if (double_area(from_i ? i : j, from_i ? j : i, order[k], f, evaluations)) {
+        if (double_area(a[k], b[k], order[k], f, evaluations)) {
           // What pair_integral does with unoccluded()'s value (no visibility here).
           cost.kernel_evaluations += evaluations;
           if (f > 0.0) ++cost.pairs_unoccluded;

@@ -173,9 +173,9 @@ class ExactFormFactors final : public FormFactorMethod {
   // Orders m and m - 1 (at least 2 and 1) on both elements: whether they agree within
   // `tolerance`, the order-m value in f and the evaluations spent.
   bool double_area(size_t i, size_t j, int m, double& f, uint64_t& evaluations) const;
-  // upper_row's set-up of the pair (a, b): -1 culled (pair_faces), m > 0 the double-area order
-  // (neither element clipped, apart), 0 otherwise (pair_integral decides).
-  int separated_order(size_t a, size_t b) const;
+  // The smaller of the two height scales of that bound (i_high, j_high: the highest corners),
+  // and in `both` the larger element's diameter.
+  double double_area_scale(size_t i, size_t j, double i_high, double j_high, double& both) const;
   // i_heights: `from`'s above j's plane; j_heights: `to`'s above i's plane.
   double unoccluded(size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to,
                     double kept, const Heights& i_heights, const Heights& j_heights,
