@@ -105,16 +105,43 @@ template <size_t NA, size_t NB>
   return double_area_sum(a, n_i, b, n_j) * area_j / std::numbers::pi;
 }
 
-// The pair most separated pairs take, orders 2 and 1 on quads (16 terms and 1), with no switch.
+namespace {
+
+// The pair most separated pairs take: orders 2 and 1 on quads (16 terms and 1).
+bool common(const DoubleAreaRules& p) {
+  return p.a_high.count == 4 && p.b_high.count == 4 && p.a_low.count == 1 && p.b_low.count == 1;
+}
+
+[[gnu::always_inline]] inline DoubleAreaPair common_pair(const DoubleAreaRules& p) {
+  return {double_area_fixed<4, 4>(p.a_high, p.n_i, p.b_high, p.n_j) * p.area_j / std::numbers::pi,
+          double_area_fixed<1, 1>(p.a_low, p.n_i, p.b_low, p.n_j) * p.area_j / std::numbers::pi};
+}
+
+[[gnu::always_inline]] inline DoubleAreaPair any_pair(const DoubleAreaRules& p) {
+  if (common(p)) return common_pair(p);
+  return {double_area_sum(p.a_high, p.n_i, p.b_high, p.n_j) * p.area_j / std::numbers::pi,
+          double_area_sum(p.a_low, p.n_i, p.b_low, p.n_j) * p.area_j / std::numbers::pi};
+}
+
+}  // namespace
+
 [[gnu::target_clones("avx2", "default")]] DoubleAreaPair double_area_pair(
-    const ElementRules::Rule& a_high, const ElementRules::Rule& b_high,
-    const ElementRules::Rule& a_low, const ElementRules::Rule& b_low, const Vec3& n_i,
-    const Vec3& n_j, double area_j) {
-  if (a_high.count == 4 && b_high.count == 4 && a_low.count == 1 && b_low.count == 1)
-    return {double_area_fixed<4, 4>(a_high, n_i, b_high, n_j) * area_j / std::numbers::pi,
-            double_area_fixed<1, 1>(a_low, n_i, b_low, n_j) * area_j / std::numbers::pi};
-  return {double_area_sum(a_high, n_i, b_high, n_j) * area_j / std::numbers::pi,
-          double_area_sum(a_low, n_i, b_low, n_j) * area_j / std::numbers::pi};
+    const DoubleAreaRules& p) {
+  return any_pair(p);
+}
+
+[[gnu::target_clones("avx2", "default")]] void double_area_pairs(const DoubleAreaRules& p,
+                                                                 const DoubleAreaRules& q,
+                                                                 DoubleAreaPair& fp,
+                                                                 DoubleAreaPair& fq) {
+  if (common(p) && common(q)) {  // straight-line code the compiler interleaves
+    const DoubleAreaPair a = common_pair(p), b = common_pair(q);
+    fp = a;
+    fq = b;
+    return;
+  }
+  fp = any_pair(p);
+  fq = any_pair(q);
 }
 
 }  // namespace radlab

@@ -54,13 +54,20 @@ class ElementRules {
 double double_area_form_factor(const ElementRules::Rule& a, const Vec3& n_i,
                                const ElementRules::Rule& b, const Vec3& n_j, double area_j);
 
-// The two rules of the acceptance test at once (exact.cpp: orders m and m - 1 on both elements),
-// each the same bits as double_area_form_factor; one call instead of two.
+// The acceptance test's rules of one pair (exact.cpp): orders m and m - 1 on both elements.
+struct DoubleAreaRules {
+  ElementRules::Rule a_high, b_high, a_low, b_low;
+  Vec3 n_i, n_j;
+  double area_j;
+};
 struct DoubleAreaPair {
   double high, low;
 };
-DoubleAreaPair double_area_pair(const ElementRules::Rule& a_high, const ElementRules::Rule& b_high,
-                                const ElementRules::Rule& a_low, const ElementRules::Rule& b_low,
-                                const Vec3& n_i, const Vec3& n_j, double area_j);
+// Both rules in one call, each the same bits as double_area_form_factor.
+DoubleAreaPair double_area_pair(const DoubleAreaRules& p);
+// Two pairs in one call, so that their chains of sums and divisions interleave; each result the
+// same bits as double_area_pair's.
+void double_area_pairs(const DoubleAreaRules& p, const DoubleAreaRules& q, DoubleAreaPair& fp,
+                       DoubleAreaPair& fq);
 
 }  // namespace radlab

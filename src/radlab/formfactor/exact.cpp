@@ -280,20 +280,18 @@ double ExactFormFactors::pair_integral(size_t i, size_t j, RowCost& cost) const 
   return order_rule_.order(gap, both, scale);
 }
 
-[[gnu::always_inline]] inline bool ExactFormFactors::double_area(size_t i, size_t j, int m,
-                                                                 double& f,
-                                                                 uint64_t& evaluations) const {
+// Field by field into `out`: a whole struct built aside and copied was read back in 16-byte
+// pieces just after its 8-byte stores, a store-forwarding stall on every pair.
+[[gnu::always_inline]] inline void ExactFormFactors::double_area_rules(size_t i, size_t j, int m,
+                                                                       DoubleAreaRules& out) const {
   const int order = std::max(2, m);
-  const ElementRules::Rule i_high = element_rules_.rule(i, order),
-                           i_low = element_rules_.rule(i, order - 1);
-  const auto [high, low] = double_area_pair(i_high, element_rules_.rule(j, order), i_low,
-                                            element_rules_.rule(j, order - 1), mesh_.normal[i],
-                                            mesh_.normal[j], mesh_.area[j]);
-  // Counted as the points of i at which an inner sum over j stands in for F_{dx->j} (what a
-  // kernel evaluation is elsewhere), not the m^4 cheap terms.
-  evaluations = uint64_t(i_high.count + i_low.count);
-  f = high;
-  return std::abs(high - low) <= options_.tolerance * std::abs(high);
+  out.a_high = element_rules_.rule(i, order);
+  out.b_high = element_rules_.rule(j, order);
+  out.a_low = element_rules_.rule(i, order - 1);
+  out.b_low = element_rules_.rule(j, order - 1);
+  out.n_i = mesh_.normal[i];
+  out.n_j = mesh_.normal[j];
+  out.area_j = mesh_.area[j];
 }
 
 void ExactFormFactors::upper_row(size_t i, std::span<double> out, RowCost& cost) const {
@@ -340,6 +338,22 @@ void ExactFormFactors::upper_row(size_t i, std::span<double> out, RowCost& cost)
     }
     for (size_t k = 0; k < count; ++k)
       if (order[k] > 0) order[k] = gap[k] > 0.0 ? order_rule_.order(gap[k], both[k], scale[k]) : 0;
+    // The double-area rules of the candidates, two pairs at a time.
+    size_t candidate[kBatch], candidates = 0;
+    for (size_t k = 0; k < count; ++k)
+      if (order[k] > 0 && order[k] <= ElementRules::kMaxOrder) candidate[candidates++] = k;
+    DoubleAreaRules rules[kBatch];
+    DoubleAreaPair f[kBatch];
+    for (size_t c = 0; c < candidates; ++c) {
+      const size_t k = candidate[c];
+      double_area_rules(a[k], b[k], order[k], rules[k]);
+    }
+    size_t c = 0;
+    for (; c + 1 < candidates; c += 2) {
+      const size_t k = candidate[c], l = candidate[c + 1];
+      double_area_pairs(rules[k], rules[l], f[k], f[l]);
+    }
+    if (c < candidates) f[candidate[c]] = double_area_pair(rules[candidate[c]]);
     for (size_t k = 0; k < count; ++k) {
       const size_t j = first + k;
       if (order[k] < 0) {
@@ -347,16 +361,12 @@ void ExactFormFactors::upper_row(size_t i, std::span<double> out, RowCost& cost)
         out[j] = 0.0;
         continue;
       }
-      if (order[k] > 0 && order[k] <= ElementRules::kMaxOrder) {
-        double f = 0.0;
-        uint64_t evaluations = 0;
-        if (double_area(a[k], b[k], order[k], f, evaluations)) {
-          // What pair_integral does with unoccluded()'s value (no visibility here).
-          cost.kernel_evaluations += evaluations;
-          if (f > 0.0) ++cost.pairs_unoccluded;
-          out[j] = f > 0.0 ? f : 0.0;
-          continue;
-        }
+      if (order[k] > 0 && order[k] <= ElementRules::kMaxOrder && agree(f[k])) {
+        // What pair_integral does with unoccluded()'s value (no visibility here).
+        cost.kernel_evaluations += double_area_evaluations(rules[k]);
+        if (f[k].high > 0.0) ++cost.pairs_unoccluded;
+        out[j] = f[k].high > 0.0 ? f[k].high : 0.0;
+        continue;
       }
       out[j] = general(j);  // from the start: its costs as pair_integral counts them
     }
@@ -395,11 +405,11 @@ void ExactFormFactors::upper_row(size_t i, std::span<double> out, RowCost& cost)
     if (kept == 1.0 && i_heights.low > plane_epsilon_ && j_heights.low > plane_epsilon_) {
       const int m = double_area_order(i, j, gap, i_heights, j_heights);
       if (m > 0 && m <= ElementRules::kMaxOrder) {
-        double f = 0.0;
-        uint64_t evaluations = 0;
-        const bool agree = double_area(i, j, m, f, evaluations);
-        cost.kernel_evaluations += evaluations;
-        if (agree) return f;
+        DoubleAreaRules rules;
+        double_area_rules(i, j, m, rules);
+        const DoubleAreaPair f = double_area_pair(rules);
+        cost.kernel_evaluations += double_area_evaluations(rules);
+        if (agree(f)) return f.high;
       }
     }
     const int bound = order_rule_.order(gap, diameter, scale_i);

@@ -57,6 +57,7 @@
 // 20000; only with visibility=clip).
 #pragma once
 
+#include <cmath>
 #include <memory>
 #include <mutex>
 #include <unordered_set>
@@ -170,9 +171,17 @@ class ExactFormFactors final : public FormFactorMethod {
   // two height scales (0 when no fixed order suffices).
   int double_area_order(size_t i, size_t j, double gap, const Heights& i_heights,
                         const Heights& j_heights) const;
-  // Orders m and m - 1 (at least 2 and 1) on both elements: whether they agree within
-  // `tolerance`, the order-m value in f and the evaluations spent.
-  bool double_area(size_t i, size_t j, int m, double& f, uint64_t& evaluations) const;
+  // The rules of orders m and m - 1 (at least 2 and 1) on both elements.
+  void double_area_rules(size_t i, size_t j, int m, DoubleAreaRules& out) const;
+  // Whether the two rules agree within `tolerance` (the pair then takes f.high).
+  bool agree(const DoubleAreaPair& f) const {
+    return std::abs(f.high - f.low) <= options_.tolerance * std::abs(f.high);
+  }
+  // Counted as the points of i at which an inner sum over j stands in for F_{dx->j} (what a
+  // kernel evaluation is elsewhere), not the m^4 cheap terms.
+  static uint64_t double_area_evaluations(const DoubleAreaRules& rules) {
+    return uint64_t(rules.a_high.count + rules.a_low.count);
+  }
   // The smaller of the two height scales of that bound (i_high, j_high: the highest corners),
   // and in `both` the larger element's diameter.
   double double_area_scale(size_t i, size_t j, double i_high, double j_high, double& both) const;
