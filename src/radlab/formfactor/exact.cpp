@@ -168,15 +168,38 @@ double ExactFormFactors::pair(size_t i, size_t j, RowCost& cost) const {
   return reciprocal(pair_integral(j, i, cost), mesh_.area[j], mesh_.area[i]);
 }
 
+namespace {
+
+// The heights of N corners (N known at compile time: quads, triangles), all computed before any is
+// compared, so no comparison waits for the next dot product; then the least and greatest in
+// corner order (the same values as one pass) and the flags without branches.
+template <size_t N>
+[[gnu::always_inline]] inline void corner_heights(const Vec3* corners, const Vec3& point,
+                                                  const Vec3& normal, double epsilon, double& low,
+                                                  double& high, bool& front, bool& behind) {
+  double height[N];
+  for (size_t k = 0; k < N; ++k) height[k] = glm::dot(corners[k] - point, normal);
+  for (size_t k = 0; k < N; ++k) {
+    low = std::min(low, height[k]);
+    high = std::max(high, height[k]);
+    front = front | (height[k] > epsilon);
+    behind = behind | (height[k] < -epsilon);
+  }
+}
+
+}  // namespace
+
 [[gnu::always_inline]] inline ExactFormFactors::Heights ExactFormFactors::heights(
     std::span<const Vec3> corners, const Vec3& point, const Vec3& normal) const {
   Heights h;
-  for (const Vec3& v : corners) {
-    const double height = glm::dot(v - point, normal);
-    h.low = std::min(h.low, height);
-    h.high = std::max(h.high, height);
-    h.front = h.front || height > plane_epsilon_;
-    h.behind = h.behind || height < -plane_epsilon_;
+  const Vec3* c = corners.data();
+  if (corners.size() == 4) {
+    corner_heights<4>(c, point, normal, plane_epsilon_, h.low, h.high, h.front, h.behind);
+  } else if (corners.size() == 3) {
+    corner_heights<3>(c, point, normal, plane_epsilon_, h.low, h.high, h.front, h.behind);
+  } else {
+    for (size_t k = 0; k < corners.size(); ++k)
+      corner_heights<1>(c + k, point, normal, plane_epsilon_, h.low, h.high, h.front, h.behind);
   }
   return h;
 }
