@@ -66,9 +66,7 @@ void assemble_rows(const FormFactorMatrix& upper, const Mesh& mesh, size_t lo, s
   }
   for (size_t i = lo; i < hi; ++i) {
     double* row = tile.data() + (i - lo) * n;
-    upper.visit_row(i, [&](const auto* u) {
-      for (size_t j = i + 1; j < n; ++j) row[j] = double(u[j]);
-    });
+    upper_columns(upper, i, i + 1, n, row + i + 1);
     row[i] = 0.0;
     for (size_t j = 0; j < n; ++j)
       if (!ExactFormFactors::integrates_from(mesh, i, j))
