@@ -353,14 +353,21 @@ void ExactFormFactors::upper_row(size_t i, std::span<double> out, RowCost& cost)
               ? 1
               : 0;
     }
-    for (size_t k = 0; k < count; ++k) {
+    // Only the pairs still in question (culled ones are a sixth of a closed room's).
+    size_t open[kBatch], opened = 0;
+    for (size_t k = 0; k < count; ++k)
+      if (order[k] > 0) open[opened++] = k;
+    for (size_t o = 0; o < opened; ++o) {
+      const size_t k = open[o];
       // unoccluded()'s gap
       gap[k] =
           glm::distance(mesh_.centroid[a[k]], mesh_.centroid[b[k]]) - radius_[a[k]] - radius_[b[k]];
       scale[k] = double_area_scale(a[k], b[k], a_high[k], b_high[k], both[k]);
     }
-    for (size_t k = 0; k < count; ++k)
-      if (order[k] > 0) order[k] = gap[k] > 0.0 ? order_rule_.order(gap[k], both[k], scale[k]) : 0;
+    for (size_t o = 0; o < opened; ++o) {
+      const size_t k = open[o];
+      order[k] = gap[k] > 0.0 ? order_rule_.order(gap[k], both[k], scale[k]) : 0;
+    }
     // The double-area rules of the candidates, two pairs at a time.
     size_t candidate[kBatch], candidates = 0;
     for (size_t k = 0; k < count; ++k)
