@@ -134,7 +134,7 @@ bool common(const DoubleAreaRules& p) {
                                                                  const DoubleAreaRules& q,
                                                                  DoubleAreaPair& fp,
                                                                  DoubleAreaPair& fq) {
-  if (common(p) && common(q)) {  // straight-line code the compiler interleaves
+  if (common(p) && common(q)) {  // two independent chains, no branch between them
     const DoubleAreaPair a = common_pair(p), b = common_pair(q);
     fp = a;
     fq = b;

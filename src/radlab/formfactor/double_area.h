@@ -65,8 +65,8 @@ struct DoubleAreaPair {
 };
 // Both rules in one call, each the same bits as double_area_form_factor.
 DoubleAreaPair double_area_pair(const DoubleAreaRules& p);
-// Two pairs in one call, so that their chains of sums and divisions interleave; each result the
-// same bits as double_area_pair's.
+// Two pairs in one call (one dispatch for two; the out-of-order core may overlap their chains of
+// sums and divisions); each result the same bits as double_area_pair's.
 void double_area_pairs(const DoubleAreaRules& p, const DoubleAreaRules& q, DoubleAreaPair& fp,
                        DoubleAreaPair& fq);
 
