@@ -8,6 +8,7 @@
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <glm/geometric.hpp>
 #include <vector>
 
 #include "radlab/experiments/problem.h"
@@ -121,6 +122,62 @@ TEST(SymmetricBuild, TheCommandLinesDenseBuildIntegratesEachPairOnce) {
   EXPECT_TRUE(identical_entries(convert_precision(problem->matrix, Precision::kDouble), rows));
   EXPECT_GT(problem->build.cost.pairs_traced, 0u);
   EXPECT_EQ(2 * problem->build.cost.kernel_evaluations, rows_report.cost.kernel_evaluations);
+}
+
+// A polygon turned to face `inside` (its vertex order reversed when its normal points away).
+std::vector<Vec3> facing(std::vector<Vec3> polygon, const Vec3& inside) {
+  const Vec3 normal = glm::cross(polygon[1] - polygon[0], polygon[2] - polygon[0]);
+  if (glm::dot(normal, inside - polygon[0]) < 0.0) std::reverse(polygon.begin(), polygon.end());
+  return polygon;
+}
+
+// The closed box [0,x] x [0,y] x [0,z], faces inward: elements of three sizes at one element
+// size, so pairs of both orientations (and near pairs along the edges) occur.
+Scene box(double x, double y, double z) {
+  const Vec3 centre(x / 2, y / 2, z / 2);
+  auto at = [&](double a, double b, double c) { return Vec3(a, b, c); };
+  return testing::scene_of({facing({at(0, 0, 0), at(x, 0, 0), at(x, y, 0), at(0, y, 0)}, centre),
+                            facing({at(0, 0, z), at(x, 0, z), at(x, y, z), at(0, y, z)}, centre),
+                            facing({at(0, 0, 0), at(0, y, 0), at(0, y, z), at(0, 0, z)}, centre),
+                            facing({at(x, 0, 0), at(x, y, 0), at(x, y, z), at(x, 0, z)}, centre),
+                            facing({at(0, 0, 0), at(x, 0, 0), at(x, 0, z), at(0, 0, z)}, centre),
+                            facing({at(0, y, 0), at(x, y, 0), at(x, y, z), at(0, y, z)}, centre)});
+}
+
+// A closed triangular prism, faces inward: triangular elements on its ends.
+Scene prism() {
+  const Vec3 a(0, 0, 0), b(1, 0, 0), c(0.3, 0.8, 0), up(0, 0, 0.5);
+  const Vec3 centre = (a + b + c) / 3.0 + up / 2.0;
+  return testing::scene_of({facing({a, b, c}, centre), facing({a + up, b + up, c + up}, centre),
+                            facing({a, b, b + up, a + up}, centre),
+                            facing({b, c, c + up, b + up}, centre),
+                            facing({c, a, a + up, c + up}, centre)});
+}
+
+// Unoccluded scenes (nothing can occlude: ExactFormFactors::upper_row's batches, not the
+// per-pair path the clipped tests above take): the same bits and costs as row by row, with
+// elements of several sizes (both orientations) and shapes (quads and triangles).
+TEST(SymmetricBuild, UnoccludedBatchesGiveTheSameBitsAsRowByRow) {
+  for (const Scene& scene : {box(1.0, 0.6, 0.35), prism()}) {
+    const Mesh mesh = build_mesh(scene, {1, 0.15});
+    const size_t n = mesh.size();
+    ExactOptions options;
+    options.tolerance = 1e-3;
+    const ExactFormFactors method(scene, mesh, options);
+    BuildReport rows_report, report;
+    const FormFactorMatrix rows = build_matrix(method, n, Precision::kDouble, rows_report);
+    const FormFactorMatrix m =
+        build_matrix_symmetric(method, mesh, Precision::kDouble, Layout::kSparse, report);
+    EXPECT_TRUE(identical_entries(m, rows));
+    EXPECT_EQ(report.cost.pairs_culled, rows_report.cost.pairs_culled);
+    EXPECT_EQ(report.cost.pairs_unoccluded, rows_report.cost.pairs_unoccluded);
+    EXPECT_EQ(2 * report.cost.kernel_evaluations, rows_report.cost.kernel_evaluations);
+    size_t turned = 0;
+    for (size_t i = 0; i < n; ++i)
+      for (size_t j = i + 1; j < n; ++j)
+        if (m.at(i, j) > 0 && !ExactFormFactors::integrates_from(mesh, i, j)) ++turned;
+    EXPECT_GT(turned, 20u);
+  }
 }
 
 }  // namespace

@@ -15,15 +15,13 @@ ElementRules::ElementRules(const Mesh& mesh) {
   for (size_t e = 0; e < mesh.size(); ++e) {
     mesh.corners(e, corners);
     for (int order = 1; order <= kMaxOrder; ++order) {
-      start_.push_back(w_.size());
+      start_.push_back(data_.size());
       element_quadrature(corners, order, rule);
-      x_.insert(x_.end(), rule.x.begin(), rule.x.end());
-      y_.insert(y_.end(), rule.y.begin(), rule.y.end());
-      z_.insert(z_.end(), rule.z.begin(), rule.z.end());
-      w_.insert(w_.end(), rule.weight.begin(), rule.weight.end());
+      for (const std::vector<double>* v : {&rule.x, &rule.y, &rule.z, &rule.weight})
+        data_.insert(data_.end(), v->begin(), v->end());
     }
   }
-  start_.push_back(w_.size());
+  start_.push_back(data_.size());
 }
 
 namespace {
@@ -40,44 +38,43 @@ namespace {
 }
 
 // Rules of NA and NB points (compile-time sizes: every loop unrolled and vectorised). The same
-// operations in the same order as the general loop below, so the same bits.
+// operations in the same order as the general loop below, so the same bits: each point k of i
+// sums its terms over l in order, then the points' weighted sums are added in order. The loops
+// run over l outside and k inside, so the NA running sums are one vector (no horizontal sum
+// a point).
 template <size_t NA, size_t NB>
 [[gnu::always_inline]] inline double double_area_fixed(const ElementRules::Rule& a, const Vec3& n_i,
                                                        const ElementRules::Rule& b,
                                                        const Vec3& n_j) {
-  double sum = 0.0;
-  for (size_t k = 0; k < NA; ++k) {
-    const double ax = a.x[k], ay = a.y[k], az = a.z[k];
-    double term[NB];
-    for (size_t l = 0; l < NB; ++l)
-      term[l] = kernel_term(ax, ay, az, b.x[l], b.y[l], b.z[l], b.w[l], n_i, n_j);
-    double inner = 0.0;
-    for (size_t l = 0; l < NB; ++l) inner += term[l];
-    sum += a.w[k] * inner;
+  double inner[NA];
+  for (size_t k = 0; k < NA; ++k) inner[k] = 0.0;
+  for (size_t l = 0; l < NB; ++l) {
+    const double bx = b.x[l], by = b.y[l], bz = b.z[l], bw = b.w[l];
+    for (size_t k = 0; k < NA; ++k)
+      inner[k] += kernel_term(a.x[k], a.y[k], a.z[k], bx, by, bz, bw, n_i, n_j);
   }
+  double sum = 0.0;
+  for (size_t k = 0; k < NA; ++k) sum += a.w[k] * inner[k];
   return sum;
 }
-
-}  // namespace
 
 // The terms of one point of i against a block of j's points first (a loop without a reduction,
 // which GCC vectorises; AVX2 where the CPU has it, without FMA so every CPU gets the same bits),
 // then their sum in order. Quads and triangles have m^2 points at order m, so the common sizes
 // (1, 4, 9, 16 on both sides) take loops of fixed length: with the general loop's bounds known
 // only at run time, its set-up outweighed the 16 or 81 terms of orders 2 and 3.
-[[gnu::target_clones("avx2", "default")]] double double_area_form_factor(
-    const ElementRules::Rule& a, const Vec3& n_i, const ElementRules::Rule& b, const Vec3& n_j,
-    double area_j) {
+[[gnu::always_inline]] inline double double_area_sum(const ElementRules::Rule& a, const Vec3& n_i,
+                                                     const ElementRules::Rule& b, const Vec3& n_j) {
   if (a.count == b.count) {
     switch (a.count) {
       case 1:
-        return double_area_fixed<1, 1>(a, n_i, b, n_j) * area_j / std::numbers::pi;
+        return double_area_fixed<1, 1>(a, n_i, b, n_j);
       case 4:
-        return double_area_fixed<4, 4>(a, n_i, b, n_j) * area_j / std::numbers::pi;
+        return double_area_fixed<4, 4>(a, n_i, b, n_j);
       case 9:
-        return double_area_fixed<9, 9>(a, n_i, b, n_j) * area_j / std::numbers::pi;
+        return double_area_fixed<9, 9>(a, n_i, b, n_j);
       case 16:
-        return double_area_fixed<16, 16>(a, n_i, b, n_j) * area_j / std::numbers::pi;
+        return double_area_fixed<16, 16>(a, n_i, b, n_j);
       default:
         break;
     }
@@ -97,7 +94,54 @@ template <size_t NA, size_t NB>
     }
     sum += a.w[k] * inner;
   }
-  return sum * area_j / std::numbers::pi;
+  return sum;
+}
+
+}  // namespace
+
+[[gnu::target_clones("avx2", "default")]] double double_area_form_factor(
+    const ElementRules::Rule& a, const Vec3& n_i, const ElementRules::Rule& b, const Vec3& n_j,
+    double area_j) {
+  return double_area_sum(a, n_i, b, n_j) * area_j / std::numbers::pi;
+}
+
+namespace {
+
+// The pair most separated pairs take: orders 2 and 1 on quads (16 terms and 1).
+bool common(const DoubleAreaRules& p) {
+  return p.a_high.count == 4 && p.b_high.count == 4 && p.a_low.count == 1 && p.b_low.count == 1;
+}
+
+[[gnu::always_inline]] inline DoubleAreaPair common_pair(const DoubleAreaRules& p) {
+  return {double_area_fixed<4, 4>(p.a_high, p.n_i, p.b_high, p.n_j) * p.area_j / std::numbers::pi,
+          double_area_fixed<1, 1>(p.a_low, p.n_i, p.b_low, p.n_j) * p.area_j / std::numbers::pi};
+}
+
+[[gnu::always_inline]] inline DoubleAreaPair any_pair(const DoubleAreaRules& p) {
+  if (common(p)) return common_pair(p);
+  return {double_area_sum(p.a_high, p.n_i, p.b_high, p.n_j) * p.area_j / std::numbers::pi,
+          double_area_sum(p.a_low, p.n_i, p.b_low, p.n_j) * p.area_j / std::numbers::pi};
+}
+
+}  // namespace
+
+[[gnu::target_clones("avx2", "default")]] DoubleAreaPair double_area_pair(
+    const DoubleAreaRules& p) {
+  return any_pair(p);
+}
+
+[[gnu::target_clones("avx2", "default")]] void double_area_pairs(const DoubleAreaRules& p,
+                                                                 const DoubleAreaRules& q,
+                                                                 DoubleAreaPair& fp,
+                                                                 DoubleAreaPair& fq) {
+  if (common(p) && common(q)) {  // two independent chains, no branch between them
+    const DoubleAreaPair a = common_pair(p), b = common_pair(q);
+    fp = a;
+    fq = b;
+    return;
+  }
+  fp = any_pair(p);
+  fq = any_pair(q);
 }
 
 }  // namespace radlab

@@ -95,6 +95,8 @@ ExactFormFactors::ExactFormFactors(const Scene& scene, const Mesh& mesh, ExactOp
       element_rules_(mesh) {
   plane_epsilon_ = plane_epsilon(mesh);
   radius_ = element_radii(mesh);
+  corner_.reserve(mesh.vertex_index.size());
+  for (uint32_t v : mesh.vertex_index) corner_.push_back(mesh.vertices[v]);
   row_excess_.assign(mesh.size(), 0.0);
   if (is_convex_enclosure(scene)) {
     nothing_occludes_ = true;
@@ -166,18 +168,64 @@ double ExactFormFactors::pair(size_t i, size_t j, RowCost& cost) const {
   return reciprocal(pair_integral(j, i, cost), mesh_.area[j], mesh_.area[i]);
 }
 
+namespace {
+
+// The heights of N corners (N known at compile time: quads, triangles), all computed before any is
+// compared, so no comparison waits for the next dot product; then the least and greatest in
+// corner order (the same values as one pass) and the flags without branches.
+template <size_t N>
+[[gnu::always_inline]] inline void corner_heights(const Vec3* corners, const Vec3& point,
+                                                  const Vec3& normal, double epsilon, double& low,
+                                                  double& high, bool& front, bool& behind) {
+  double height[N];
+  for (size_t k = 0; k < N; ++k) height[k] = glm::dot(corners[k] - point, normal);
+  for (size_t k = 0; k < N; ++k) {
+    low = std::min(low, height[k]);
+    high = std::max(high, height[k]);
+    front = front | (height[k] > epsilon);
+    behind = behind | (height[k] < -epsilon);
+  }
+}
+
+}  // namespace
+
+[[gnu::always_inline]] inline ExactFormFactors::Heights ExactFormFactors::heights(
+    std::span<const Vec3> corners, const Vec3& point, const Vec3& normal) const {
+  Heights h;
+  const Vec3* c = corners.data();
+  if (corners.size() == 4) {
+    corner_heights<4>(c, point, normal, plane_epsilon_, h.low, h.high, h.front, h.behind);
+  } else if (corners.size() == 3) {
+    corner_heights<3>(c, point, normal, plane_epsilon_, h.low, h.high, h.front, h.behind);
+  } else {
+    for (size_t k = 0; k < corners.size(); ++k)
+      corner_heights<1>(c + k, point, normal, plane_epsilon_, h.low, h.high, h.front, h.behind);
+  }
+  return h;
+}
+
 double ExactFormFactors::pair_integral(size_t i, size_t j, RowCost& cost) const {
   if (i == j) return 0.0;
-  if (!pair_faces(mesh_, i, j, plane_epsilon_)) {
+  // pair_faces (raycast.h) from the heights unoccluded() needs anyway: the same dots.
+  const std::span<const Vec3> to = corners(j);
+  const Heights j_heights = heights(to, mesh_.centroid[i], mesh_.normal[i]);
+  const Heights i_heights =
+      j_heights.front ? heights(corners(i), mesh_.centroid[j], mesh_.normal[j]) : Heights{};
+  if (!j_heights.front || !i_heights.front) {
     ++cost.pairs_culled;
     return 0.0;
   }
-  thread_local std::vector<Vec3> from, to;
-  mesh_.corners(i, from);
-  mesh_.corners(j, to);
-  // Integrate only over the part of i in front of j's plane (no jump in the integrand).
-  const double kept = clip_to_front(from, mesh_.centroid[j], mesh_.normal[j], plane_epsilon_);
-  if (kept <= 0.0) return 0.0;
+  // Integrate only over the part of i in front of j's plane (no jump in the integrand). With no
+  // corner behind it, clip_to_front keeps all of i: i's corners are used in place.
+  std::span<const Vec3> from = corners(i);
+  double kept = 1.0;
+  thread_local std::vector<Vec3> clipped;
+  if (i_heights.behind) {
+    clipped.assign(from.begin(), from.end());
+    kept = clip_to_front(clipped, mesh_.centroid[j], mesh_.normal[j], plane_epsilon_);
+    if (kept <= 0.0) return 0.0;
+    from = clipped;
+  }
   if (shafts_) {
     thread_local std::vector<uint32_t> ids;
     shafts_->blockers(i, j, ids);
@@ -227,11 +275,132 @@ double ExactFormFactors::pair_integral(size_t i, size_t j, RowCost& cost) const 
       return f > 0.0 ? f : 0.0;
     }
   }
-  const double f = unoccluded(i, j, from, to, kept, cost);
+  const Heights from_heights =
+      i_heights.behind ? heights(from, mesh_.centroid[j], mesh_.normal[j]) : i_heights;
+  const double f = unoccluded(i, j, from, to, kept, from_heights, j_heights, cost);
   if (f <= 0.0) return 0.0;
   if (visibility_) return f * visibility_->fraction(i, j, cost);
   ++cost.pairs_unoccluded;
   return f;
+}
+
+[[gnu::always_inline]] inline double ExactFormFactors::double_area_scale(size_t i, size_t j,
+                                                                         double i_high,
+                                                                         double j_high,
+                                                                         double& both) const {
+  // unoccluded()'s height_mean and slope (kept == 1: the centre is i's centroid).
+  const double height_mean = glm::dot(mesh_.centroid[i] - mesh_.centroid[j], mesh_.normal[j]);
+  const double slope = glm::length(glm::cross(mesh_.normal[i], mesh_.normal[j]));
+  both = 2.0 * std::max(radius_[i], radius_[j]);
+  const double h_mean = glm::dot(mesh_.centroid[j] - mesh_.centroid[i], mesh_.normal[i]);
+  return std::min(height_mean / (i_high + slope * both), h_mean / (j_high + slope * both));
+}
+
+[[gnu::always_inline]] inline int ExactFormFactors::double_area_order(
+    size_t i, size_t j, double gap, const Heights& i_heights, const Heights& j_heights) const {
+  double both = 0.0;
+  const double scale = double_area_scale(i, j, i_heights.high, j_heights.high, both);
+  return order_rule_.order(gap, both, scale);
+}
+
+// Field by field into `out`: a whole struct built aside and copied was read back in 16-byte
+// pieces just after its 8-byte stores, a store-forwarding stall on every pair.
+[[gnu::always_inline]] inline void ExactFormFactors::double_area_rules(size_t i, size_t j, int m,
+                                                                       DoubleAreaRules& out) const {
+  const int order = std::max(2, m);
+  out.a_high = element_rules_.rule(i, order);
+  out.b_high = element_rules_.rule(j, order);
+  out.a_low = element_rules_.rule(i, order - 1);
+  out.b_low = element_rules_.rule(j, order - 1);
+  out.n_i = mesh_.normal[i];
+  out.n_j = mesh_.normal[j];
+  out.area_j = mesh_.area[j];
+}
+
+void ExactFormFactors::upper_row(size_t i, std::span<double> out, RowCost& cost) const {
+  const size_t n = mesh_.size();
+  auto general = [&](size_t j) {
+    return integrates_from(mesh_, i, j) ? pair_integral(i, j, cost) : pair_integral(j, i, cost);
+  };
+  if (shafts_ || visibility_) {  // every pair may need clipping or rays
+    for (size_t j = i + 1; j < n; ++j) out[j] = general(j);
+    return;
+  }
+  // pair_integral's steps up to the double-area order in three passes over the batch, each
+  // short and without a chain from one pair to the next: the heights (culled: -1; clipped, or
+  // touching a plane: 0, pair_integral decides), then gap and height scale (two square roots,
+  // three divisions), then the order.
+  constexpr size_t kBatch = 8;
+  size_t a[kBatch], b[kBatch];
+  int order[kBatch];
+  double a_high[kBatch], b_high[kBatch], gap[kBatch], both[kBatch], scale[kBatch];
+  for (size_t first = i + 1; first < n; first += kBatch) {
+    const size_t count = std::min(kBatch, n - first);
+    for (size_t k = 0; k < count; ++k) {
+      const size_t j = first + k;
+      const bool from_i = integrates_from(mesh_, i, j);
+      a[k] = from_i ? i : j;
+      b[k] = from_i ? j : i;
+      const Heights b_heights = heights(corners(b[k]), mesh_.centroid[a[k]], mesh_.normal[a[k]]);
+      const Heights a_heights =
+          b_heights.front ? heights(corners(a[k]), mesh_.centroid[b[k]], mesh_.normal[b[k]])
+                          : Heights{};
+      a_high[k] = a_heights.high;
+      b_high[k] = b_heights.high;
+      order[k] =
+          !(b_heights.front && a_heights.front) ? -1
+          : !a_heights.behind && a_heights.low > plane_epsilon_ && b_heights.low > plane_epsilon_
+              ? 1
+              : 0;
+    }
+    // Only the pairs still in question (culled ones are a sixth of a closed room's).
+    size_t open[kBatch], opened = 0;
+    for (size_t k = 0; k < count; ++k)
+      if (order[k] > 0) open[opened++] = k;
+    for (size_t o = 0; o < opened; ++o) {
+      const size_t k = open[o];
+      // unoccluded()'s gap
+      gap[k] =
+          glm::distance(mesh_.centroid[a[k]], mesh_.centroid[b[k]]) - radius_[a[k]] - radius_[b[k]];
+      scale[k] = double_area_scale(a[k], b[k], a_high[k], b_high[k], both[k]);
+    }
+    for (size_t o = 0; o < opened; ++o) {
+      const size_t k = open[o];
+      order[k] = gap[k] > 0.0 ? order_rule_.order(gap[k], both[k], scale[k]) : 0;
+    }
+    // The double-area rules of the candidates, two pairs at a time.
+    size_t candidate[kBatch], candidates = 0;
+    for (size_t k = 0; k < count; ++k)
+      if (order[k] > 0 && order[k] <= ElementRules::kMaxOrder) candidate[candidates++] = k;
+    DoubleAreaRules rules[kBatch];
+    DoubleAreaPair f[kBatch];
+    for (size_t c = 0; c < candidates; ++c) {
+      const size_t k = candidate[c];
+      double_area_rules(a[k], b[k], order[k], rules[k]);
+    }
+    size_t c = 0;
+    for (; c + 1 < candidates; c += 2) {
+      const size_t k = candidate[c], l = candidate[c + 1];
+      double_area_pairs(rules[k], rules[l], f[k], f[l]);
+    }
+    if (c < candidates) f[candidate[c]] = double_area_pair(rules[candidate[c]]);
+    for (size_t k = 0; k < count; ++k) {
+      const size_t j = first + k;
+      if (order[k] < 0) {
+        ++cost.pairs_culled;
+        out[j] = 0.0;
+        continue;
+      }
+      if (order[k] > 0 && order[k] <= ElementRules::kMaxOrder && agree(f[k])) {
+        // What pair_integral does with unoccluded()'s value (no visibility here).
+        cost.kernel_evaluations += double_area_evaluations(rules[k]);
+        if (f[k].high > 0.0) ++cost.pairs_unoccluded;
+        out[j] = f[k].high > 0.0 ? f[k].high : 0.0;
+        continue;
+      }
+      out[j] = general(j);  // from the start: its costs as pair_integral counts them
+    }
+  }
 }
 
 // F_ij without occluders for the part `from` of i in front of j's plane (the fraction `kept`).
@@ -244,8 +413,9 @@ double ExactFormFactors::pair_integral(size_t i, size_t j, RowCost& cost) const 
 // difference, at m^2 + (m-1)^2 evaluations (5 to 13 on most pairs of a room at 1e-2) instead of
 // the adaptive rule's 45 or more. Otherwise (touching or near pairs, no order up to
 // kMaxFixedOrder, or the rules disagree) the adaptive rule decides, as before.
-double ExactFormFactors::unoccluded(size_t i, size_t j, std::span<const Vec3> from,
-                                    std::span<const Vec3> to, double kept, RowCost& cost) const {
+[[gnu::always_inline]] inline double ExactFormFactors::unoccluded(
+    size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to, double kept,
+    const Heights& i_heights, const Heights& j_heights, RowCost& cost) const {
   const PolygonRef a{from, mesh_.normal[i]}, b{to, mesh_.normal[j]};
   const double gap = glm::distance(mesh_.centroid[i], mesh_.centroid[j]) - radius_[i] - radius_[j];
   const double diameter = 2.0 * radius_[i];
@@ -254,9 +424,7 @@ double ExactFormFactors::unoccluded(size_t i, size_t j, std::span<const Vec3> fr
     // linear, its mean the value at the kept part's centroid, and on the ellipse it grows by at
     // most sin(angle between the planes) per unit of i's diameter (pair_geometry.h's
     // grazing_scale, written out here because the double-area test below reuses its parts).
-    double height_max = 0.0;
-    for (const Vec3& v : from)
-      height_max = std::max(height_max, glm::dot(v - mesh_.centroid[j], mesh_.normal[j]));
+    const double height_max = i_heights.high;
     const Vec3 centre = kept < 1.0 ? geometry::centroid(from) : mesh_.centroid[i];
     const double height_mean = glm::dot(centre - mesh_.centroid[j], mesh_.normal[j]);
     const double slope = glm::length(glm::cross(mesh_.normal[i], mesh_.normal[j]));
@@ -264,32 +432,14 @@ double ExactFormFactors::unoccluded(size_t i, size_t j, std::span<const Vec3> fr
     // Both elements wholly in front of each other's planes: the double-area rule first
     // (double_area.h), orders m and m - 1 on both elements, m from the bound for the larger
     // element and the smaller of the two height scales, the same acceptance test.
-    double j_low = 1e300, j_max = 0.0, i_low = 1e300;
-    for (const Vec3& v : to) {
-      const double h = glm::dot(v - mesh_.centroid[i], mesh_.normal[i]);
-      j_low = std::min(j_low, h);
-      j_max = std::max(j_max, h);
-    }
-    for (const Vec3& v : from)
-      i_low = std::min(i_low, glm::dot(v - mesh_.centroid[j], mesh_.normal[j]));
-    if (kept == 1.0 && i_low > plane_epsilon_ && j_low > plane_epsilon_) {
-      const double both = 2.0 * std::max(radius_[i], radius_[j]);
-      const double h_mean = glm::dot(mesh_.centroid[j] - mesh_.centroid[i], mesh_.normal[i]);
-      const double scale =
-          std::min(height_mean / (height_max + slope * both), h_mean / (j_max + slope * both));
-      const int m = order_rule_.order(gap, both, scale);
+    if (kept == 1.0 && i_heights.low > plane_epsilon_ && j_heights.low > plane_epsilon_) {
+      const int m = double_area_order(i, j, gap, i_heights, j_heights);
       if (m > 0 && m <= ElementRules::kMaxOrder) {
-        const int order = std::max(2, m);
-        auto rule = [&](size_t e, int o) { return element_rules_.rule(e, o); };
-        const double high = double_area_form_factor(rule(i, order), mesh_.normal[i], rule(j, order),
-                                                    mesh_.normal[j], mesh_.area[j]);
-        const double low =
-            double_area_form_factor(rule(i, order - 1), mesh_.normal[i], rule(j, order - 1),
-                                    mesh_.normal[j], mesh_.area[j]);
-        // Counted as the points of i at which an inner sum over j stands in for F_{dx->j}
-        // (what a kernel evaluation is elsewhere), not the m^4 cheap terms.
-        cost.kernel_evaluations += uint64_t(rule(i, order).count + rule(i, order - 1).count);
-        if (std::abs(high - low) <= options_.tolerance * std::abs(high)) return high;
+        DoubleAreaRules rules;
+        double_area_rules(i, j, m, rules);
+        const DoubleAreaPair f = double_area_pair(rules);
+        cost.kernel_evaluations += double_area_evaluations(rules);
+        if (agree(f)) return f.high;
       }
     }
     const int bound = order_rule_.order(gap, diameter, scale_i);

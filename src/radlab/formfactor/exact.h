@@ -57,6 +57,7 @@
 // 20000; only with visibility=clip).
 #pragma once
 
+#include <cmath>
 #include <memory>
 #include <mutex>
 #include <unordered_set>
@@ -105,6 +106,12 @@ class ExactFormFactors final : public FormFactorMethod {
   double pair(size_t i, size_t j, RowCost& cost) const;
   // F_ij integrated over element i whatever the areas (the one-way integral pair() orients).
   double pair_integral(size_t i, size_t j, RowCost& cost) const;
+  // For every j in (i, n): out[j] = the pair's integral over its integrated side a
+  // (integrates_from), pair_integral(a, b), the same bits and costs. The pairs of a batch take
+  // their set-up (heights, gap, the double-area order: square roots and divisions in a chain)
+  // one after the other before any is integrated, so the chains overlap instead of stalling
+  // each pair (build_matrix_symmetric's rows).
+  void upper_row(size_t i, std::span<double> out, RowCost& cost) const;
   // Whether pair(i, j) integrates over i (true) or over j and scales by A_j / A_i (false).
   static bool integrates_from(const Mesh& mesh, size_t i, size_t j) {
     return mesh.area[i] < mesh.area[j] || (mesh.area[i] == mesh.area[j] && i < j);
@@ -143,8 +150,45 @@ class ExactFormFactors final : public FormFactorMethod {
   std::vector<double> radius_;              // each element's largest centroid-corner distance
   FixedOrderRule order_rule_;               // Bernstein-bound Gauss order for separated pairs
   ElementRules element_rules_;              // Gauss rules of every element (double-area pairs)
+  // Every element's corners back to back (at mesh_.first_vertex): a pair whose elements need no
+  // clipping reads them in place instead of copying them (Mesh::corners) for every pair.
+  std::vector<Vec3> corner_;
+  std::span<const Vec3> corners(size_t e) const {
+    return {corner_.data() + mesh_.first_vertex[e],
+            mesh_.first_vertex[e + 1] - mesh_.first_vertex[e]};
+  }
+  // The heights of one element's corners above the other's plane, from one pass over them: what
+  // pair_faces, clip_to_front and the Bernstein order each computed again from the same dots.
+  struct Heights {
+    double low = 1e300;   // the least height
+    double high = 0.0;    // the greatest, or 0 when every corner lies below
+    bool front = false;   // some corner more than plane_epsilon_ in front
+    bool behind = false;  // some corner more than plane_epsilon_ behind
+  };
+  Heights heights(std::span<const Vec3> corners, const Vec3& point, const Vec3& normal) const;
+  // The double-area rule's order for the pair (i, j), both wholly in front of each other's
+  // planes and `gap` apart: the Bernstein bound for the larger element and the smaller of the
+  // two height scales (0 when no fixed order suffices).
+  int double_area_order(size_t i, size_t j, double gap, const Heights& i_heights,
+                        const Heights& j_heights) const;
+  // The rules of orders m and m - 1 (at least 2 and 1) on both elements.
+  void double_area_rules(size_t i, size_t j, int m, DoubleAreaRules& out) const;
+  // Whether the two rules agree within `tolerance` (the pair then takes f.high).
+  bool agree(const DoubleAreaPair& f) const {
+    return std::abs(f.high - f.low) <= options_.tolerance * std::abs(f.high);
+  }
+  // Counted as the points of i at which an inner sum over j stands in for F_{dx->j} (what a
+  // kernel evaluation is elsewhere), not the m^4 cheap terms.
+  static uint64_t double_area_evaluations(const DoubleAreaRules& rules) {
+    return uint64_t(rules.a_high.count + rules.a_low.count);
+  }
+  // The smaller of the two height scales of that bound (i_high, j_high: the highest corners),
+  // and in `both` the larger element's diameter.
+  double double_area_scale(size_t i, size_t j, double i_high, double j_high, double& both) const;
+  // i_heights: `from`'s above j's plane; j_heights: `to`'s above i's plane.
   double unoccluded(size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to,
-                    double kept, RowCost& cost) const;
+                    double kept, const Heights& i_heights, const Heights& j_heights,
+                    RowCost& cost) const;
   double clipped_pair(size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to,
                       std::span<const Occluder> occluders, double floor, long long max_evaluations,
                       RowCost& cost, double* error) const;

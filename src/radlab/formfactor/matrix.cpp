@@ -174,17 +174,18 @@ void FormFactorMatrix::set_row(size_t i, std::span<const double> values,
   }
   SparseRow row;
   const bool whole = (run.size() * sizeof(uint32_t) + count * value_bytes) >= n_ * value_bytes;
+  // Appended run by run (converted to T on the way), not resized to zeros first and then
+  // overwritten: one pass over the new row's memory instead of two.
   auto fill = [&](auto& out) {
-    using T = std::decay_t<decltype(out[0])>;
     if (whole) {
-      out.resize(n_);
-      for (size_t j = 0; j < n_; ++j) out[j] = T(values[j]);
+      out.assign(values.begin(), values.end());
       return;
     }
-    out.resize(count);
+    out.reserve(count);
     for (size_t k = 0; k < run.size(); k += 2) {
       const size_t end = k + 2 < run.size() ? run[k + 3] : count;
-      for (size_t c = run[k + 1]; c < end; ++c) out[c] = T(values[run[k] + (c - run[k + 1])]);
+      const auto first = values.begin() + std::ptrdiff_t(run[k]);
+      out.insert(out.end(), first, first + std::ptrdiff_t(end - run[k + 1]));
     }
   };
   if (precision_ == Precision::kFloat)

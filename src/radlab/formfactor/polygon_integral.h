@@ -10,6 +10,8 @@
 // collinear corners) contribute nothing and cost nothing.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <functional>
 #include <span>
 #include <vector>
@@ -108,7 +110,7 @@ class FixedOrderRule {
  public:
   FixedOrderRule(double relative_tolerance, int max_order);
   // The smallest sufficient order, or 0 when no fixed rule up to max_order suffices (the caller
-  // then integrates adaptively).
+  // then integrates adaptively). Inline (below): exact's rows ask it for every pair.
   int order(double gap, double diameter, double scale = 1.0) const;
 
  private:
@@ -116,5 +118,40 @@ class FixedOrderRule {
   double inverse_tolerance_;      // exp of the above, C / relative_tolerance
   int max_order_;
 };
+
+inline int FixedOrderRule::order(double gap, double diameter, double scale) const {
+  if (!(gap > 0.0) || !(diameter > 0.0) || !(scale > 0.0)) return 0;
+  const double a = 1.0 + 2.0 * gap / diameter;
+  const double r = a + std::sqrt(a * a - 1.0);
+  const double s = std::min(scale, 1.0);
+  // The order m below is the smallest integer >= X = ln(K / s) / (2 ln r), K = C / tolerance,
+  // i.e. the smallest m with r^(2m) s >= K. That test needs no logarithm: r^(2m) s by repeated
+  // multiplication (relative error < 1e-14 for m <= 32) against K with a margin of 1e-9, far
+  // above both computations' rounding. When m passes with the margin and m - 1 fails with it
+  // (or m = 1), X lies clearly in (m - 1, m] and the formula below gives m too; otherwise (X
+  // within the margin of an integer, or not finite) the formula decides. Same orders, without
+  // two logarithms per pair.
+  constexpr double kMargin = 1e-9;
+  const double high = inverse_tolerance_ * (1.0 + kMargin),
+               low = inverse_tolerance_ * (1.0 - kMargin);
+  const double r2 = r * r;
+  double power = r2 * s, previous = 0.0;  // r^(2m) s and r^(2(m - 1)) s
+  int m = 1;
+  for (; m <= max_order_; ++m) {
+    if (power >= high) break;
+    previous = power;
+    power *= r2;
+  }
+  if (m > max_order_) {
+    if (previous < low) return 0;  // X > max_order: no fixed rule suffices
+  } else if (m == 1 || previous < low) {
+    return m;
+  }
+  const double log_r = std::log(r);
+  // Error ~ C r^(-2m) / scale <= tol  <=>  m >= ln(C / (tol scale)) / (2 ln r).
+  const double order = std::ceil((log_inverse_tolerance_ - std::log(s)) / (2.0 * log_r));
+  if (!(order <= double(max_order_))) return 0;
+  return std::max(1, int(order));
+}
 
 }  // namespace radlab
