@@ -1,6 +1,9 @@
 // The skipped-end prefilter (visibility.cpp, compute_end_neighbours): the pieces of unblocked
 // segments next to their ends are traced again only where another polygon comes near. It must
-// change the cost only: V and its standard error are the same with and without it.
+// change the cost only: V and its standard error are the same with and without it. (The packets
+// of pieces are the same either way, and only packets whose every piece is proven clear are left
+// out: Embree's answer for a grazing ray depends on its packet, and leaving single pieces out
+// changed V on 2 of hospital.mgf's 35 M traced pairs.)
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -26,9 +29,13 @@ namespace {
 // Every facing pair's V and sigma with the prefilter (the default) and without it, as raycast
 // draws its rays (16 a pair, up to 4,096 for large form factors, close pairs in solid angle).
 // Counts the pairs compared in `pairs`.
-void expect_same_visibility(const Scene& scene, const Mesh& mesh, uint64_t seed, size_t& pairs) {
+// `max_neighbours`: the prefilter's per-element list limit (0: grids alone, as where the memory
+// budget runs out).
+void expect_same_visibility(const Scene& scene, const Mesh& mesh, uint64_t seed, size_t& pairs,
+                            size_t max_neighbours = 128) {
   const double eps = plane_epsilon(mesh);
   Visibility filtered(scene, mesh, 16, seed, /*shaft_culling=*/true, 4096, true);
+  filtered.limit_end_lists(max_neighbours);
   Visibility traced(scene, mesh, 16, seed, true, 4096, true);
   traced.set_end_prefilter(false);
   RowCost cost;
@@ -47,7 +54,8 @@ void expect_same_visibility(const Scene& scene, const Mesh& mesh, uint64_t seed,
   EXPECT_EQ(traced.end_pieces_cleared(), 0u);
   EXPECT_EQ(filtered.end_pieces_cleared() + filtered.end_pieces_traced(),
             traced.end_pieces_traced());
-  EXPECT_GT(filtered.end_pieces_cleared(), 10 * filtered.end_pieces_traced());
+  EXPECT_GT(filtered.end_pieces_cleared(),
+            (max_neighbours > 0 ? 10 : 1) * filtered.end_pieces_traced());
 }
 
 // The Cornell box: blocks standing on the floor, walls meeting at every edge, so pieces next to
@@ -58,6 +66,16 @@ TEST(SkippedEnds, PrefilterChangesNoVisibilityOnTheCornellBox) {
   const Mesh mesh = build_mesh(scene, {6, 0.0});
   size_t pairs = 0;
   expect_same_visibility(scene, mesh, 3, pairs);
+  EXPECT_GT(pairs, 10000u);
+}
+
+// Grids alone (no element keeps its neighbour lists): pieces in marked cells are traced.
+TEST(SkippedEnds, GridsWithoutListsChangeNoVisibility) {
+  Scene scene = make_builtin_scene("cornell");
+  validate_scene(scene);
+  const Mesh mesh = build_mesh(scene, {6, 0.0});
+  size_t pairs = 0;
+  expect_same_visibility(scene, mesh, 5, pairs, 0);
   EXPECT_GT(pairs, 10000u);
 }
 

@@ -96,7 +96,10 @@ void Visibility::compute_end_neighbours() {
   end_rows_.assign(n * kEndSide, 0);
   end_block_first_.assign(n * kEndBlocks + 1, 0);
   end_block_neighbours_.clear();
+  const size_t budget = (size_t(32) << 20) + 1024 * n;
+  size_t list_bytes = 0;
   std::vector<uint32_t> found;
+  std::vector<Neighbour> candidates;
   std::vector<uint64_t> block_masks;
   for (size_t e = 0; e < n; ++e) {
     // e's frame and region.
@@ -139,12 +142,13 @@ void Visibility::compute_end_neighbours() {
       const glm::dvec2 extent = range(r.origin[axis], coefficients(axis), r.lo, r.hi);
       region.lo[axis] = extent.x - margin, region.hi[axis] = extent.y + margin;
     }
-    // The neighbours.
+    // The candidates.
     found.clear();
     embree_->elements_near(0.5 * (region.lo + region.hi),
                            0.5 * glm::length(region.hi - region.lo) + margin, found);
     std::sort(found.begin(), found.end());
     found.erase(std::unique(found.begin(), found.end()), found.end());
+    candidates.clear();
     for (uint32_t c : found) {
       if (mesh_.polygon[c] == mesh_.polygon[e]) continue;  // ignored by the retrace
       Neighbour g;
@@ -154,17 +158,17 @@ void Visibility::compute_end_neighbours() {
       g.normal = mesh_.normal[c];
       g.offset = glm::dot(g.normal, mesh_.centroid[c]);
       g.thickness = off_plane_[c] + float_error_ + 2.0 * margin;
-      end_neighbours_.push_back(g);
+      candidates.push_back(g);
     }
-    end_neighbours_first_[e + 1] = uint32_t(end_neighbours_.size());
-    // The grid.
+    // The grid. Only candidates that mark a cell are kept as neighbours: a piece is looked at
+    // against its block's markers alone (a large tilted element's box holds many elements its
+    // plane never comes near).
     uint64_t* rows = end_rows_.data() + r.first_row;
     const glm::dvec2 size = 1.0 / r.scale;
     const glm::dvec2 slack =
         1e-6 * size + 1e-12 * (glm::abs(glm::dvec2(r.lo)) + glm::abs(glm::dvec2(r.hi)));
     block_masks.clear();
-    for (uint32_t k = end_neighbours_first_[e]; k < end_neighbours_first_[e + 1]; ++k) {
-      const Neighbour& g = end_neighbours_[k];
+    for (const Neighbour& g : candidates) {
       uint64_t blocks = 0;  // the blocks of 8 x 8 cells where g marked a cell
       // The cells whose prisms may reach the neighbour's box: its corners' (u, v) range.
       glm::dvec2 gl(std::numeric_limits<double>::infinity()), gh(-gl);
@@ -180,28 +184,66 @@ void Visibility::compute_end_neighbours() {
       const double plane = glm::dot(g.normal, r.origin) - g.offset;
       const Vec3 toward(glm::dot(g.normal, r.across), glm::dot(g.normal, r.along),
                         glm::dot(g.normal, r.normal));
-      for (int y = first.y; y <= last.y; ++y)
-        for (int x = first.x; x <= last.x; ++x) {
-          const Vec3 q0(r.lo.x + x * size.x - slack.x - reach,
-                        r.lo.y + y * size.y - slack.y - reach, r.lo.z);
-          const Vec3 q1(r.lo.x + (x + 1) * size.x + slack.x + reach,
-                        r.lo.y + (y + 1) * size.y + slack.y + reach, r.hi.z);
-          const glm::dvec2 distance = range(plane, toward, q0, q1);
-          if (distance.x > g.thickness || distance.y < -g.thickness) continue;
-          bool inside = true;
-          for (int axis = 0; axis < 3 && inside; ++axis) {
-            const glm::dvec2 extent = range(r.origin[axis], coefficients(axis), q0, q1);
-            inside = extent.x <= g.hi[axis] && extent.y >= g.lo[axis];
+      // Row by row: each test is a + b u + (the v and h terms' range) against [low, high], a
+      // linear condition on u, so the cells of a row that pass it are a run of columns,
+      // computed and then widened by a cell on each side for rounding (marking more is safe).
+      for (int y = first.y; y <= last.y; ++y) {
+        const double v0 = r.lo.y + y * size.y - slack.y - reach;
+        const double v1 = r.lo.y + (y + 1) * size.y + slack.y + reach;
+        double from_x = double(first.x), to_x = double(last.x);
+        const auto restrict_to = [&](double a, const Vec3& coefficient, double lower,
+                                     double upper) {
+          // The v and h terms' range over the row's prisms.
+          const double cv0 = coefficient.y * v0, cv1 = coefficient.y * v1;
+          const double ch0 = coefficient.z * r.lo.z, ch1 = coefficient.z * r.hi.z;
+          const double rest_lo = std::min(cv0, cv1) + std::min(ch0, ch1);
+          const double rest_hi = std::max(cv0, cv1) + std::max(ch0, ch1);
+          const double b = coefficient.x;
+          if (!(std::abs(b) > 1e-300)) {  // no dependence on u
+            if (a + rest_lo > upper || a + rest_hi < lower) from_x = 1.0, to_x = 0.0;
+            return;
           }
-          if (inside) {
-            rows[y] |= uint64_t(1) << x;
-            blocks |= uint64_t(1) << (x / kEndBlock + (kEndSide / kEndBlock) * (y / kEndBlock));
-          }
-        }
+          // Some rest in its range puts a + b u + rest in [lower, upper] exactly when b u lies in
+          // [lower - a - rest_hi, upper - a - rest_lo]; cell x spans u in [lo + x size - pad,
+          // lo + (x + 1) size + pad].
+          const double pad = slack.x + reach;
+          const double u_a = (lower - a - rest_hi) / b, u_b = (upper - a - rest_lo) / b;
+          const double u_min = std::min(u_a, u_b), u_max = std::max(u_a, u_b);
+          // u in [u_min, u_max] must meet the cell's span: x from (u_min - lo - pad) / size - 1
+          // to (u_max - lo + pad) / size.
+          from_x = std::max(from_x, std::floor((u_min - r.lo.x - pad) / size.x - 1.0) - 1.0);
+          to_x = std::min(to_x, std::ceil((u_max - r.lo.x + pad) / size.x) + 1.0);
+        };
+        restrict_to(plane, toward, -g.thickness, g.thickness);
+        for (int axis = 0; axis < 3; ++axis)
+          restrict_to(r.origin[axis], coefficients(axis), g.lo[axis], g.hi[axis]);
+        if (!(from_x <= to_x)) continue;
+        const int x0 = int(std::max(from_x, 0.0)), x1 = int(std::min(to_x, double(kEndSide - 1)));
+        if (x0 > x1) continue;
+        const uint64_t columns = (~uint64_t(0) >> (63 - x1)) & (~uint64_t(0) << x0);
+        rows[y] |= columns;
+        for (int x = x0; x <= x1; x += kEndBlock - x % kEndBlock)
+          blocks |= uint64_t(1) << (x / kEndBlock + (kEndSide / kEndBlock) * (y / kEndBlock));
+      }
+      if (blocks == 0) continue;
+      end_neighbours_.push_back(g);
       block_masks.push_back(blocks);
     }
-    // Per block, the neighbours that marked a cell in it: a piece in a marked cell looks only
-    // at its block's.
+    // Memory: the lists get a budget of 32 MB plus 1 KB an element, and an element has at most
+    // max_end_neighbours_ (128); past either, an element keeps its grid but not its lists, and its
+    // pieces in marked cells are traced (soda.mgf: 35,000 of 53,207 elements have 48 neighbours or
+    // more, and all lists would take 580 MB; examp1's take 0.4 MB).
+    size_t bytes = (end_neighbours_.size() - end_neighbours_first_[e]) * sizeof(Neighbour);
+    for (uint64_t blocks : block_masks) bytes += size_t(std::popcount(blocks)) * sizeof(uint32_t);
+    r.listed = end_neighbours_.size() - end_neighbours_first_[e] <= max_end_neighbours_ &&
+               list_bytes + bytes <= budget;
+    if (r.listed) list_bytes += bytes;
+    if (!r.listed) {
+      end_neighbours_.resize(end_neighbours_first_[e]);
+      block_masks.clear();
+    }
+    end_neighbours_first_[e + 1] = uint32_t(end_neighbours_.size());
+    // Per block, the neighbours that marked a cell in it.
     for (int b = 0; b < kEndBlocks; ++b) {
       end_block_first_[e * kEndBlocks + size_t(b)] = uint32_t(end_block_neighbours_.size());
       for (uint32_t k = end_neighbours_first_[e]; k < end_neighbours_first_[e + 1]; ++k)
@@ -221,10 +263,6 @@ void Visibility::classify_pieces(const SegmentPacket& s, size_t end, bool at_ori
                                  uint32_t* block) const {
   if (!end_prefilter_ || end_reach_.empty()) {
     std::fill(state, state + 16, kPieceTraced);
-    return;
-  }
-  if (end_neighbours_first_[end] == end_neighbours_first_[end + 1]) {  // none near
-    std::fill(state, state + 16, kPieceClear);
     return;
   }
   const EndReach& r = end_reach_[end];
@@ -254,7 +292,9 @@ void Visibility::classify_pieces(const SegmentPacket& s, size_t end, bool at_ori
       state[k] = kPieceTraced;
       continue;
     }
-    state[k] = (rows[row[k]] >> column[k]) & 1u ? kPieceMarked : kPieceClear;
+    state[k] = !((rows[row[k]] >> column[k]) & 1u) ? kPieceClear
+               : r.listed                          ? kPieceMarked
+                                                   : kPieceTraced;
     block[k] = uint32_t(end * kEndBlocks) + uint32_t(column[k] / kEndBlock) +
                uint32_t(kEndSide / kEndBlock) * uint32_t(row[k] / kEndBlock);
   }
@@ -516,8 +556,21 @@ void Visibility::trace_skipped_ends(const SegmentPacket& segments, bool* blocked
   constexpr float kEnd = 2.4e-7f;  // 4 float ulps of t near 1, as in trace
   thread_local SegmentPacket pieces;
   int lane_of[16];
+  bool clear[16];  // proven clear by the prefilter (compute_end_neighbours)
+  uint64_t traced = 0, cleared = 0;
+  // The pieces go into packets of 16 in a fixed order, whatever the prefilter says, and a packet
+  // is traced whole unless every piece in it is proven clear: Embree's answer for a ray that
+  // grazes an edge can depend on the other rays of its packet (hospital.mgf: 2 of 35 M pairs
+  // changed V when cleared pieces were left out of the packets), so the packets traced must be
+  // the ones traced without the prefilter for V to keep its bits.
   const auto flush = [&] {
     if (pieces.count == 0) return;
+    if (std::all_of(clear, clear + pieces.count, [](bool c) { return c; })) {
+      cleared += uint64_t(pieces.count);
+      pieces.count = 0;
+      return;
+    }
+    traced += uint64_t(pieces.count);
     const auto plane = [&](size_t e) {
       return EmbreeScene::Plane{mesh_.centroid[e], mesh_.normal[e],
                                 8.0 * (off_plane_[e] + float_error_)};
@@ -528,21 +581,16 @@ void Visibility::trace_skipped_ends(const SegmentPacket& segments, bool* blocked
     for (int k = 0; k < pieces.count; ++k) blocked[lane_of[k]] |= hit[k];
     pieces.count = 0;
   };
-  uint64_t traced = 0, cleared = 0;
   uint8_t near_state[16], far_state[16];
   uint32_t near_block[16], far_block[16];
   classify_pieces(segments, from, true, near_state, near_block);
   classify_pieces(segments, to, false, far_state, far_block);
   const auto add = [&](int lane, float t0, float t1, uint8_t state, uint32_t block) {
     if (!(t0 < t1)) return;
-    if (state == kPieceClear ||
-        (state == kPieceMarked && !piece_meets_a_neighbour(segments, lane, t0, t1, block))) {
-      ++cleared;
-      return;
-    }
-    ++traced;
     if (pieces.count == 16) flush();
     const int k = pieces.count++;
+    clear[k] = state == kPieceClear ||
+               (state == kPieceMarked && !piece_meets_a_neighbour(segments, lane, t0, t1, block));
     pieces.ox[k] = segments.ox[lane], pieces.oy[k] = segments.oy[lane];
     pieces.oz[k] = segments.oz[lane];
     pieces.dx[k] = segments.dx[lane], pieces.dy[k] = segments.dy[lane];

@@ -76,9 +76,23 @@ class Visibility {
   // default; compute_end_neighbours). Off, every piece is traced again: V must not change (for
   // tests and measurement).
   void set_end_prefilter(bool on) { end_prefilter_ = on; }
+  // Rebuilds the prefilter keeping neighbour lists only for elements with at most
+  // `max_neighbours` (tests: 0 leaves every element its grid alone, as the memory budget does
+  // where it runs out).
+  void limit_end_lists(size_t max_neighbours) {
+    max_end_neighbours_ = max_neighbours;
+    if (embree_) compute_end_neighbours();
+  }
   // Pieces traced again and pieces the prefilter proved clear, over all threads (measurement).
   uint64_t end_pieces_traced() const { return end_pieces_traced_.load(); }
   uint64_t end_pieces_cleared() const { return end_pieces_cleared_.load(); }
+  // The prefilter's memory: grids, neighbours and their lists (measurement).
+  size_t end_prefilter_bytes() const {
+    return end_reach_.size() * sizeof(EndReach) + end_rows_.size() * sizeof(uint64_t) +
+           end_neighbours_first_.size() * sizeof(uint32_t) +
+           end_neighbours_.size() * sizeof(Neighbour) +
+           (end_block_first_.size() + end_block_neighbours_.size()) * sizeof(uint32_t);
+  }
 
   // Which traced pairs get the Embree filter that drops hits on i's and j's own polygons:
   // automatic (the default) only pairs where such a hit can occur; always every pair (V must not
@@ -145,6 +159,7 @@ class Visibility {
     Vec3 lo, hi;
   };
   static constexpr int kEndSide = 64;
+  size_t max_end_neighbours_ = 128;    // an element with more keeps only its grid
   static constexpr int kEndBlock = 8;  // cells a side of a block
   static constexpr int kEndBlocks = (kEndSide / kEndBlock) * (kEndSide / kEndBlock);
   struct EndReach {
@@ -152,6 +167,7 @@ class Visibility {
     Vec3 lo, hi;            // in (u, v, h)
     glm::dvec2 scale{0.0};  // cells per unit length in u and v
     size_t first_row = 0;
+    bool listed = true;  // false: over the list budget, pieces in marked cells are traced
   };
   struct Neighbour {
     Vec3 lo, hi, normal;
