@@ -21,13 +21,15 @@
 
 namespace radlab {
 
+// The mesh's bounding-box diagonal (0 for no vertices).
+static double diagonal_of(const Mesh& mesh) {
+  Box box;
+  for (const Vec3& v : mesh.vertices) box.grow(v);
+  return mesh.vertices.empty() ? 0.0 : glm::length(box.hi - box.lo);
+}
+
 double plane_epsilon(const Mesh& mesh) {
-  Vec3 lo(1e300), hi(-1e300);
-  for (const Vec3& v : mesh.vertices) {
-    lo = glm::min(lo, v);
-    hi = glm::max(hi, v);
-  }
-  return mesh.vertices.empty() ? 0.0 : 1e-9 * glm::length(hi - lo);
+  return 1e-9 * diagonal_of(mesh);
 }
 
 Visibility::Visibility(const Scene& scene, const Mesh& mesh, int rays, uint64_t seed,
@@ -76,20 +78,13 @@ Visibility::Visibility(const Scene& scene, const Mesh& mesh, int rays, uint64_t 
 // only, never V: `set_end_prefilter(false)` traces them all (tests compare).
 void Visibility::compute_end_neighbours() {
   const size_t n = mesh_.size();
-  Vec3 lo(std::numeric_limits<double>::infinity()), hi(-lo);
-  for (const Vec3& v : mesh_.vertices) lo = glm::min(lo, v), hi = glm::max(hi, v);
-  const double diagonal = mesh_.vertices.empty() ? 0.0 : glm::length(hi - lo);
+  const double diagonal = diagonal_of(mesh_);
   const double margin = 8.0 * float_error_ + 1e-9 * diagonal;
   const double reach = 1.001 * std::max(1e-4 * diagonal, 1e-6) + margin;
   end_piece_reach_ = reach;
   std::vector<Box> box(n);
-  for (size_t e = 0; e < n; ++e) {
-    Box b{Vec3(std::numeric_limits<double>::infinity()),
-          Vec3(-std::numeric_limits<double>::infinity())};
-    for (uint32_t v : mesh_.element_vertices(e))
-      b.lo = glm::min(b.lo, mesh_.vertices[v]), b.hi = glm::max(b.hi, mesh_.vertices[v]);
-    box[e] = b;
-  }
+  for (size_t e = 0; e < n; ++e)
+    for (uint32_t v : mesh_.element_vertices(e)) box[e].grow(mesh_.vertices[v]);
   end_reach_.resize(n);
   end_neighbours_first_.assign(n + 1, 0);
   end_neighbours_.clear();
@@ -794,8 +789,10 @@ int Visibility::trace_close(size_t lo, size_t hi, const FacingParts& parts, int 
       packet.oz[lane] = float(toward.x[2][lane]);
       packet.dx[lane] = float(dx), packet.dy[lane] = float(dy), packet.dz[lane] = float(dz);
     }
-    for (int lane = 0; lane < 16; ++lane) weight[lane] = float(toward.omega[lane] * cos_from[lane]);
-    if (!from.uniform())  // a clipped trapezoid: weigh by the points' density
+    if (from.uniform())
+      for (int lane = 0; lane < 16; ++lane)
+        weight[lane] = float(toward.omega[lane] * cos_from[lane]);
+    else  // a clipped trapezoid: weigh by the points' density
       for (int lane = 0; lane < count; ++lane)
         weight[lane] = float(toward.omega[lane] * cos_from[lane] *
                              from.area_weight(lane_stratum[lane], lane_bits[lane]));

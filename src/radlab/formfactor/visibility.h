@@ -155,9 +155,6 @@ class Visibility {
   // grid of kEndSide x kEndSide cells over e's plane (u along `across`, v along `along`, h along
   // `normal`, from `origin`), lo and hi bounding where e's pieces lie, whose rows (end_rows_
   // from first_row, bit u) mark the cells a neighbour meets.
-  struct Box {
-    Vec3 lo, hi;
-  };
   static constexpr int kEndSide = 64;
   size_t max_end_neighbours_ = 128;    // an element with more keeps only its grid
   static constexpr int kEndBlock = 8;  // cells a side of a block
