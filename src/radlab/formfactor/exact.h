@@ -105,7 +105,12 @@ class ExactFormFactors final : public FormFactorMethod {
   // build_matrix_symmetric() all give these bits (the symmetric build integrates each pair once).
   double pair(size_t i, size_t j, RowCost& cost) const;
   // F_ij integrated over element i whatever the areas (the one-way integral pair() orients).
-  double pair_integral(size_t i, size_t j, RowCost& cost) const;
+  // In clip mode, with `may_turn`, an occluded pair whose nearest occluder is clearly nearer i
+  // than j, and whose j is at most twice i's area, is integrated over j instead and turned
+  // around by reciprocity (the shadows then move slowly across the integrated element: far
+  // fewer kinks to resolve; docs/formfactors.md, "Which side to integrate"). Without it, always
+  // over i (two independent integrations of a pair, for tests).
+  double pair_integral(size_t i, size_t j, RowCost& cost, bool may_turn = true) const;
   // For every j in (i, n): out[j] = the pair's integral over its integrated side a
   // (integrates_from), pair_integral(a, b), the same bits and costs. The pairs of a batch take
   // their set-up (heights, gap, the double-area order: square roots and divisions in a chain)
@@ -189,6 +194,17 @@ class ExactFormFactors final : public FormFactorMethod {
   double unoccluded(size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to,
                     double kept, const Heights& i_heights, const Heights& j_heights,
                     RowCost& cost) const;
+  // Clip mode: the shaft's candidates for (i, j) that no plane separates from `from` (i's part
+  // in front of j's plane) and `to`.
+  void pair_occluders(size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to,
+                      std::vector<Occluder>& occluders) const;
+  // Whether the nearest occluder is clearly nearer i's centroid than j's (then the pair is
+  // integrated over j: smaller, slower shadows).
+  bool occluders_nearer(size_t i, size_t j, std::span<const Occluder> occluders) const;
+  // Clip mode: F_ij over `from` (i's part in front of j's plane, `kept` of its area) past the
+  // non-empty `occluders`, with the corner test, the contact splits and the work cap.
+  double occluded(size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to,
+                  double kept, std::span<const Occluder> occluders, RowCost& cost) const;
   double clipped_pair(size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to,
                       std::span<const Occluder> occluders, double floor, long long max_evaluations,
                       RowCost& cost, double* error) const;
