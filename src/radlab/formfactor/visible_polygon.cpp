@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <glm/geometric.hpp>
 #include <numbers>
 
@@ -45,8 +46,9 @@ enum class Side { kInside, kOutside, kBoth };
 // untouched), kOutside when nothing, else kBoth with the part in out[0, count). An edge is cut
 // only between a corner strictly inside and one strictly outside, so the result repeats no
 // corner (Lambert's formula divides by each edge's cross product). `out` holds 2n, `h` n.
-Side clip3(const Vec3* in, size_t n, const Vec3& c, double offset, Vec3* out, size_t& count,
+Side clip3(const Vec3* in, size_t n, const Vec3& plane, double offset, Vec3* out, size_t& count,
            double* h) {
+  const Vec3 c = plane;  // a copy: the stores to h might alias it
   bool any_out = false, any_in = false;
   for (size_t k = 0; k < n; ++k) {
     h[k] = glm::dot(c, in[k]) - offset;
@@ -71,10 +73,10 @@ Side clip3(const Vec3* in, size_t n, const Vec3& c, double offset, Vec3* out, si
 // right[0, right_count), the part on its left to left[0, left_count). The same cutting rule as
 // clip3. kInside: all of it on the left (nothing written); kOutside: all on the right (nothing
 // written: the right part is `in` itself). `right` and `left` hold 2n, `h` n.
-Side split2(const Vec2* in, size_t n, const Vec2& a, const Vec2& b, Vec2* right,
+Side split2(const Vec2* in, size_t n, const Vec2& from, const Vec2& to, Vec2* right,
             size_t& right_count, Vec2* left, size_t& left_count, double* h) {
   bool any_right = false, any_left = false;
-  const Vec2 e = b - a;
+  const Vec2 a = from, e = to - from;  // copies: the stores to h might alias them
   for (size_t k = 0; k < n; ++k) {
     h[k] = cross2(e, in[k] - a);
     any_right = any_right || h[k] < 0.0;
@@ -99,10 +101,59 @@ Side split2(const Vec2* in, size_t n, const Vec2& a, const Vec2& b, Vec2* right,
   return Side::kBoth;
 }
 
+#if defined(__GNUC__)  // GCC's and Clang's vector extensions
+// Two lanes of doubles: Lambert's edge terms two at a time. Lane-wise IEEE arithmetic with the
+// operations of the scalar code in the same order, so each lane has the scalar code's bits.
+using Lanes = double __attribute__((vector_size(16)));
+using LaneBits = long long __attribute__((vector_size(16)));
+
+Lanes load_lanes(const double* p) {
+  Lanes v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+
+// fast_atan.h's atan2_upper (its kFma = false path) on two lanes: the same constants, the same
+// operations in the same order; its selects become lane selects.
+Lanes atan2_upper_lanes(Lanes y, Lanes x) {
+  constexpr double kTanPi8 = 0.41421356237309503;
+  constexpr double kQuarterHi = 0.7853981633974483, kQuarterLo = 3.061616997868383e-17;
+  const Lanes one = {1.0, 1.0}, zero = {0.0, 0.0};
+  LaneBits bits;
+  std::memcpy(&bits, &x, sizeof bits);
+  bits &= LaneBits{0x7fffffffffffffffLL, 0x7fffffffffffffffLL};  // std::fabs
+  Lanes ax;
+  std::memcpy(&ax, &bits, sizeof ax);
+  const Lanes p = y < ax ? y : ax, q = y < ax ? ax : y;
+  const Lanes m = p > kTanPi8 * q ? one : zero;
+  const Lanes swap = y > ax ? one : zero;
+  const Lanes negative = x < zero ? one : zero;
+  const Lanes swap_sign = 1.0 - 2.0 * swap, negative_sign = 1.0 - 2.0 * negative;
+  const Lanes sign = swap_sign * negative_sign;
+  const Lanes base = 2.0 * swap + 4.0 * negative * (1.0 - swap);
+  const Lanes num = sign * (p - m * q);
+  const Lanes den = q + m * p;
+  const Lanes k = base + sign * m;
+  const Lanes hi = k * kQuarterHi, lo = k * kQuarterLo;
+  const Lanes u = num / den;
+  const Lanes z = u * u, z2 = z * z, z4 = z2 * z2, z8 = z4 * z4;
+  const Lanes q0 = 0.1999999999994394 * z + -0.33333333333333165;
+  const Lanes q1 = 0.11111110731892658 * z + -0.14285714279191977;
+  const Lanes q2 = 0.07692032790080466 * z + -0.09090896242876918;
+  const Lanes q3 = 0.05845558635764282 * z + -0.06662787688935538;
+  const Lanes q4 = 0.03779249553360627 * z + -0.05028691908036365;
+  const Lanes r0 = q1 * z2 + q0;
+  const Lanes r1 = q3 * z2 + q2;
+  const Lanes r2 = -0.017606989031329887 * z2 + q4;
+  const Lanes poly = r2 * z8 + (r1 * z4 + r0);
+  return hi + ((u * z) * poly + u + lo);
+}
+#endif
+
 // point_to_polygon_form_factor (point_polygon.cpp) with the same arithmetic in the same order,
-// so the same bits, inline: the call, its `% count` per edge and the edge vectors computed twice
-// were a sixth of a visible piece's cost. Polygons that dip below x's tangent plane (rare: x's
-// own plane seldom cuts P_j) take the original, which clips them first.
+// so the same bits, inline and two edges at a time: it was a quarter of the time. Polygons that
+// dip below x's tangent plane (rare: x's own plane seldom cuts P_j) take the original, which
+// clips them first; so do polygons of more than kLanesMax corners.
 double lambert(const Vec3& x, const Vec3& n, const Vec3* p, size_t count, const Vec3& normal,
                std::vector<Vec3>& scratch) {
   if (glm::dot(x - p[0], normal) <= 0.0) return 0.0;
@@ -110,6 +161,40 @@ double lambert(const Vec3& x, const Vec3& n, const Vec3* p, size_t count, const 
     if (below_tangent_plane(p[k] - x, n))
       return point_to_polygon_form_factor(x, n, std::span<const Vec3>(p, count), normal, scratch);
   double sum = 0.0;
+#if defined(__GNUC__)
+  constexpr size_t kLanesMax = 32;
+  if (count <= kLanesMax) {
+    // The edge vectors a_k = v_k - x as structure of arrays, a_count = a_0 and one more for the
+    // odd lane of an odd count (its term is not used).
+    double ax[kLanesMax + 2], ay[kLanesMax + 2], az[kLanesMax + 2];
+    for (size_t k = 0; k < count; ++k) {
+      const Vec3 a = p[k] - x;
+      ax[k] = a.x, ay[k] = a.y, az[k] = a.z;
+    }
+    ax[count] = ax[0], ay[count] = ay[0], az[count] = az[0];
+    ax[count + 1] = ax[1], ay[count + 1] = ay[1], az[count + 1] = az[1];
+    double term[kLanesMax + 1], length[kLanesMax + 1];
+    for (size_t k = 0; k < count; k += 2) {
+      const Lanes a_x = load_lanes(ax + k), a_y = load_lanes(ay + k), a_z = load_lanes(az + k);
+      const Lanes b_x = load_lanes(ax + k + 1), b_y = load_lanes(ay + k + 1),
+                  b_z = load_lanes(az + k + 1);
+      // glm::cross(a, b), glm::dot(c, c), glm::dot(a, b), glm::dot(n, c).
+      const Lanes c_x = a_y * b_z - b_y * a_z;
+      const Lanes c_y = a_z * b_x - b_z * a_x;
+      const Lanes c_z = a_x * b_y - b_x * a_y;
+      const Lanes cc = c_x * c_x + c_y * c_y + c_z * c_z;
+      const Lanes len = {std::sqrt(cc[0]), std::sqrt(cc[1])};
+      const Lanes ab = a_x * b_x + a_y * b_y + a_z * b_z;
+      const Lanes nc = n.x * c_x + n.y * c_y + n.z * c_z;
+      const Lanes t = atan2_upper_lanes(len, ab) * nc / len;
+      std::memcpy(term + k, &t, sizeof t);
+      std::memcpy(length + k, &len, sizeof len);
+    }
+    for (size_t k = 0; k < count; ++k)
+      if (!(length[k] <= 0.0)) sum += term[k];  // as below
+    return std::abs(sum) / (2.0 * std::numbers::pi);
+  }
+#endif
   const Vec3 first = p[0] - x;
   Vec3 a = first;
   for (size_t k = 0; k < count; ++k) {
