@@ -10,7 +10,9 @@
 // cost of an occluded pair in unoccluded pairs, immune to the machine's drift. (View3D cannot
 // run in-bench; its times are in docs/formfactors.md.) BM_SymmetricBuildRoom: the whole matrix
 // at 1e-2, CPU seconds of the process, every ordered pair against each unordered pair once.
-// BM_UnoccludedBox6144: target 2's unoccluded box, one thread.
+// BM_UnoccludedBox6144: target 2's unoccluded box, one thread. BM_VisibleFormFactor: the clip
+// mode's integrand alone (visible_polygon.h), floor points against wall and ceiling elements past
+// the box's six faces, through both overloads.
 //
 // Run: build/bench/bench_occluded --benchmark_counters_tabular=true
 #include <benchmark/benchmark.h>
@@ -22,6 +24,8 @@
 #include "radlab/formfactor/exact.h"
 #include "radlab/formfactor/matrix.h"
 #include "radlab/formfactor/symmetric_build.h"
+#include "radlab/formfactor/visible_polygon.h"
+#include "radlab/scene/geometry.h"
 #include "radlab/scene/mesh.h"
 #include "radlab/scene/validate.h"
 
@@ -161,6 +165,66 @@ void BM_UnoccludedBox6144(benchmark::State& state) {
       double(report.cost.kernel_evaluations) / (0.5 * double(report.cost.pairs_unoccluded));
 }
 BENCHMARK(BM_UnoccludedBox6144)->Iterations(1)->Unit(benchmark::kMillisecond);
+
+// visible_form_factor per call, one thread: 4 x 4 points on every third floor element against
+// every fifth element of the walls and the ceiling, the box's six faces as occluders (some well
+// below the points, projected whole; some reaching their height, cut by the cone; some pairs
+// wholly hidden). ns_per_call: the span overload (which sets up P_j's frame each call);
+// prepared_ns_per_call: the VisibleTarget overload, P_j set up once per pair as exact.cpp's
+// clipped_pair can. Interleaved in the same iterations.
+void BM_VisibleFormFactor(benchmark::State& state) {
+  const Room& boxed = room(true);
+  const Mesh& mesh = boxed.mesh;
+  std::vector<Occluder> occluders;
+  for (size_t p = 6; p < 12; ++p) {
+    const std::vector<Vec3>& v = boxed.scene.polygons[p].vertices;
+    occluders.push_back({v, geometry::unit_normal(v)});
+  }
+  struct Pair {
+    std::vector<Vec3> points, to;
+    Vec3 n, to_normal;
+  };
+  std::vector<Pair> pairs;
+  std::vector<Vec3> from;
+  for (size_t i = 0; i < 64; i += 3)
+    for (size_t j = 64; j < 384; j += 5) {
+      Pair pair;
+      mesh.corners(i, from);
+      mesh.corners(j, pair.to);
+      pair.n = mesh.normal[i];
+      pair.to_normal = mesh.normal[j];
+      for (int a = 0; a < 4; ++a)
+        for (int b = 0; b < 4; ++b) {
+          const double u = (a + 0.5) / 4, v = (b + 0.5) / 4;
+          pair.points.push_back((1 - u) * (1 - v) * from[0] + u * (1 - v) * from[1] +
+                                u * v * from[2] + (1 - u) * v * from[3]);
+        }
+      pairs.push_back(std::move(pair));
+    }
+  VisibleScratch scratch;
+  VisibleTarget target;
+  double sink = 0.0, plain = 0.0, prepared = 0.0;
+  size_t calls = 0;
+  for (auto _ : state) {
+    timespec start = thread_now();
+    for (const Pair& p : pairs)
+      for (const Vec3& x : p.points)
+        sink += visible_form_factor(x, p.n, p.to, p.to_normal, occluders, 1e-9, scratch);
+    plain += thread_seconds(start);
+    start = thread_now();
+    for (const Pair& p : pairs) {
+      target.set(p.to, p.to_normal);
+      for (const Vec3& x : p.points)
+        sink += visible_form_factor(x, p.n, target, occluders, 1e-9, scratch);
+    }
+    prepared += thread_seconds(start);
+    calls += pairs.size() * 16;
+  }
+  benchmark::DoNotOptimize(sink);
+  state.counters["ns_per_call"] = 1e9 * plain / double(calls);
+  state.counters["prepared_ns_per_call"] = 1e9 * prepared / double(calls);
+}
+BENCHMARK(BM_VisibleFormFactor)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace radlab

@@ -4,9 +4,13 @@
 // integrations (over i with shadows on j, over j with shadows on i).
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <glm/geometric.hpp>
 #include <numbers>
+#include <random>
 #include <vector>
 
 #include "radlab/core/param_bag.h"
@@ -98,6 +102,114 @@ TEST(VisibleFormFactor, MissesFullCoverAndOverlaps) {
   const Occluder two[] = {{a, Vec3(0, 0, 1)}, {b, Vec3(0, 0, -1)}};
   const double shadow = 2 * (corner_rectangle(0.5, 0.5, 2) + corner_rectangle(1.0, 0.5, 2));
   EXPECT_NEAR(visible_form_factor(x, n, to, down, two, 1e-12, scratch), whole - shadow, 1e-13);
+}
+
+// A shadow that overhangs P_j: a plate well below x (projected whole, the 2D subtraction cutting
+// its shadow to P_j) and one near x's height (cut by the cone from x first) cast the same shadow,
+// [0,3] x [-3,3], hiding the half x > 0 of P_j: the rest is two corner rectangles by B-3.
+TEST(VisibleFormFactor, WholeAndConeClippedShadowsAgree) {
+  const std::vector<Vec3> to = rect(-1, 1, -1, 1, 2.0, false);
+  const Vec3 x(0.0), n(0, 0, 1), down(0, 0, -1);
+  const double expected = 2 * corner_rectangle(1, 1, 2);
+  VisibleScratch scratch;
+  // Shadow scale 2 / z for a plate at height z: z = 1 lies at half x's height above P_j, z = 0.1
+  // at 0.95 of it.
+  const std::vector<Vec3> low = rect(0, 1.5, -1.5, 1.5, 1.0, true);
+  const std::vector<Vec3> high = rect(0, 0.15, -0.15, 0.15, 0.1, true);
+  const Occluder whole[] = {{low, Vec3(0, 0, 1)}};
+  const Occluder coned[] = {{high, Vec3(0, 0, 1)}};
+  bool blocked_whole = false, blocked_coned = false;
+  const double f_whole = visible_form_factor(x, n, to, down, whole, 1e-12, scratch, &blocked_whole);
+  const double f_coned = visible_form_factor(x, n, to, down, coned, 1e-12, scratch, &blocked_coned);
+  EXPECT_TRUE(blocked_whole);
+  EXPECT_TRUE(blocked_coned);
+  EXPECT_NEAR(f_whole, expected, 1e-13);
+  EXPECT_NEAR(f_coned, expected, 1e-13);
+  EXPECT_NEAR(f_whole, f_coned, 1e-15);
+}
+
+// A whole shadow whose box overlaps P_j's but which misses P_j (a rotated quad beyond its corner
+// (1,1), some of its edges cutting P_j's box): nothing cast, Lambert's value on P_j to the bit.
+TEST(VisibleFormFactor, WholeShadowBesidePJCastsNothing) {
+  const std::vector<Vec3> to = rect(-1, 1, -1, 1, 2.0, false);
+  const Vec3 x(0.0), n(0, 0, 1), down(0, 0, -1);
+  // Shadow (0.9,1.5), (1.5,0.9), (1.6,1.0), (1.0,1.6): x + y > 2 everywhere, P_j's x + y <= 2.
+  const std::vector<Vec3> plate = {{0.45, 0.75, 1}, {0.75, 0.45, 1}, {0.8, 0.5, 1}, {0.5, 0.8, 1}};
+  const Occluder occluders[] = {{plate, Vec3(0, 0, 1)}};
+  VisibleScratch scratch;
+  std::vector<Vec3> lambert;
+  bool blocked = true, hidden = true;
+  EXPECT_EQ(visible_form_factor(x, n, to, down, occluders, 1e-12, scratch, &blocked, &hidden),
+            point_to_polygon_form_factor(x, n, to, down, lambert));
+  EXPECT_FALSE(blocked);
+  EXPECT_FALSE(hidden);
+}
+
+// Random convex P_j (3 to 7 corners, and 40: Lambert's scalar path) in tilted planes, random
+// points, random quads between them (well below the points or reaching their height): the
+// VisibleTarget overload gives the span overload's bits and flags, and without occluders both
+// give point_to_polygon_form_factor's bits (visible_polygon.cpp evaluates Lambert's formula
+// itself, two edges at a time; points whose tangent plane cuts P_j included).
+TEST(VisibleFormFactor, PreparedTargetAndLambertGiveTheSameBits) {
+  std::mt19937_64 random(12345);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  auto uniform = [&](double lo, double hi) { return lo + (hi - lo) * unit(random); };
+  auto basis = [](const Vec3& normal, Vec3& u, Vec3& v) {
+    u = glm::normalize(
+        glm::cross(normal, std::abs(normal.x) < 0.9 ? Vec3(1, 0, 0) : Vec3(0, 1, 0)));
+    v = glm::cross(normal, u);
+  };
+  VisibleScratch scratch, other;
+  VisibleTarget target;
+  std::vector<Vec3> lambert;
+  int blocked_count = 0, hidden_count = 0;
+  for (int trial = 0; trial < 3000; ++trial) {
+    const size_t m = trial % 50 == 0 ? 40 : 3 + size_t(trial) % 5;
+    const Vec3 to_normal = glm::normalize(Vec3(uniform(-0.4, 0.4), uniform(-0.4, 0.4), -1.0));
+    Vec3 u, v;
+    basis(to_normal, u, v);  // u x v = to_normal: counter-clockwise about it
+    const Vec3 centre(uniform(-0.5, 0.5), uniform(-0.5, 0.5), 2.0);
+    const double radius = uniform(0.3, 1.0), turn = uniform(0.0, 6.0);
+    std::vector<Vec3> to;
+    for (size_t k = 0; k < m; ++k) {
+      const double angle = turn + 2 * std::numbers::pi * double(k) / double(m);
+      to.push_back(centre + radius * (std::cos(angle) * u + std::sin(angle) * v));
+    }
+    const Vec3 x(uniform(-1.5, 1.5), uniform(-1.5, 1.5), uniform(0.0, 0.5));
+    const Vec3 n = glm::normalize(Vec3(uniform(-0.5, 0.5), uniform(-0.5, 0.5), 1.0));
+    std::vector<std::vector<Vec3>> quads(1 + size_t(trial) % 3);
+    std::vector<Occluder> occluders;
+    for (std::vector<Vec3>& quad : quads) {
+      const Vec3 normal = glm::normalize(Vec3(uniform(-1, 1), uniform(-1, 1), uniform(-1, 1)));
+      Vec3 a, b;
+      basis(normal, a, b);
+      const Vec3 c(uniform(-1, 1), uniform(-1, 1), uniform(0.2, 1.9));
+      const double h = uniform(0.05, 0.6);
+      quad = {c - h * a - h * b, c + h * a - h * b, c + h * a + h * b, c - h * a + h * b};
+      occluders.push_back({quad, normal});
+    }
+    target.set(to, to_normal);
+    bool blocked = false, hidden = false, prepared_blocked = true, prepared_hidden = true;
+    const double f =
+        visible_form_factor(x, n, to, to_normal, occluders, 1e-9, scratch, &blocked, &hidden);
+    const double g = visible_form_factor(x, n, target, occluders, 1e-9, other, &prepared_blocked,
+                                         &prepared_hidden);
+    ASSERT_EQ(std::bit_cast<uint64_t>(f), std::bit_cast<uint64_t>(g)) << "trial " << trial;
+    ASSERT_EQ(blocked, prepared_blocked) << "trial " << trial;
+    ASSERT_EQ(hidden, prepared_hidden) << "trial " << trial;
+    blocked_count += blocked;
+    hidden_count += hidden;
+    const double plain = point_to_polygon_form_factor(x, n, to, to_normal, lambert);
+    ASSERT_EQ(std::bit_cast<uint64_t>(plain),
+              std::bit_cast<uint64_t>(visible_form_factor(x, n, to, to_normal, {}, 1e-9, scratch)))
+        << "trial " << trial;
+    ASSERT_EQ(std::bit_cast<uint64_t>(plain),
+              std::bit_cast<uint64_t>(visible_form_factor(x, n, target, {}, 1e-9, scratch)))
+        << "trial " << trial;
+  }
+  // The draws exercise shadows and full cover, not only misses.
+  EXPECT_GT(blocked_count, 300);
+  EXPECT_GT(hidden_count, 10);
 }
 
 // Two parallel squares 1 apart; a strip 1e-7 below the upper square hides its half y > 0.5
