@@ -525,8 +525,11 @@ double ExactFormFactors::clipped_pair(size_t i, size_t j, std::span<const Vec3> 
   const Vec3 n = mesh_.normal[i], to_normal = mesh_.normal[j];
   const double epsilon = plane_epsilon_;
   thread_local VisibleScratch scratch;
+  // j's frame and flattened corners, once for all the rule's points.
+  thread_local VisibleTarget target;
+  target.set(to, to_normal);
   const PointIntegrand visible = [&](const Vec3& x) {
-    return visible_form_factor(x, n, to, to_normal, occluders, epsilon, scratch);
+    return visible_form_factor(x, n, target, occluders, epsilon, scratch);
   };
   long long evaluations = 0;
   const double f =
