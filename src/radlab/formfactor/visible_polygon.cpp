@@ -313,9 +313,11 @@ double visible(const Vec3& x, const Vec3& n, const Frame& to, std::span<const Oc
           ohi.x < top_lo.x - top_margin || ohi.y < top_lo.y - top_margin) {
         Vec3* out = room(s.clipped, 2 * count);
         size_t kept = 0;
-        // Keeps kBelow dx - depth >= 0.
-        if (clip3(poly, count, -to_normal, -(kBelow * dx + front_offset), out, kept,
-                  room(s.height, count)) == Side::kBoth) {
+        // Keeps kBelow dx - depth >= 0 (all of it above: beside the cone, it blocks nothing).
+        const Side side = clip3(poly, count, -to_normal, -(kBelow * dx + front_offset), out, kept,
+                                room(s.height, count));
+        if (side == Side::kOutside) continue;
+        if (side == Side::kBoth) {
           poly = out;
           count = kept;
           depth = room(s.depth, count);
