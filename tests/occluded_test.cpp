@@ -106,7 +106,8 @@ TEST(VisibleFormFactor, MissesFullCoverAndOverlaps) {
 
 // A shadow that overhangs P_j: a plate well below x (projected whole, the 2D subtraction cutting
 // its shadow to P_j) and one near x's height (cut by the cone from x first) cast the same shadow,
-// [0,3] x [-3,3], hiding the half x > 0 of P_j: the rest is two corner rectangles by B-3.
+// [0,3] x [-3,3], hiding the half x > 0 of P_j: the rest is two corner rectangles by B-3. And a
+// plate reaching x's height beside the cone's top (cut once, at 0.9 of x's height).
 TEST(VisibleFormFactor, WholeAndConeClippedShadowsAgree) {
   const std::vector<Vec3> to = rect(-1, 1, -1, 1, 2.0, false);
   const Vec3 x(0.0), n(0, 0, 1), down(0, 0, -1);
@@ -126,6 +127,25 @@ TEST(VisibleFormFactor, WholeAndConeClippedShadowsAgree) {
   EXPECT_NEAR(f_whole, expected, 1e-13);
   EXPECT_NEAR(f_coned, expected, 1e-13);
   EXPECT_NEAR(f_whole, f_coned, 1e-15);
+  // A tilted plate reaching 0.95 of x's height, but there at x >= 0.57 while the cone's
+  // cross-section at that height is |x|, |y| <= 0.1: cut at 0.9 of x's height and projected whole.
+  // The same plate cut at z = 0.25 (wholly well below x) casts the same shadow: the part between
+  // lies outside the cone (|x| <= z / 2 there, the plate at x >= 0.55).
+  const Vec3 tilt = glm::normalize(Vec3(0.9, 0, 0.3));
+  const std::vector<Vec3> reaching = {
+      {0.6, -0.4, 0.1}, {0.6, 0.4, 0.1}, {0.3, 0.4, 1.0}, {0.3, -0.4, 1.0}};
+  const std::vector<Vec3> cut = {
+      {0.55, -0.4, 0.25}, {0.55, 0.4, 0.25}, {0.3, 0.4, 1.0}, {0.3, -0.4, 1.0}};
+  const Occluder reaching_one[] = {{reaching, tilt}};
+  const Occluder cut_one[] = {{cut, tilt}};
+  bool blocked_reaching = false, blocked_cut = false;
+  const double f_reaching =
+      visible_form_factor(x, n, to, down, reaching_one, 1e-12, scratch, &blocked_reaching);
+  const double f_cut = visible_form_factor(x, n, to, down, cut_one, 1e-12, scratch, &blocked_cut);
+  EXPECT_TRUE(blocked_reaching);
+  EXPECT_TRUE(blocked_cut);
+  EXPECT_LT(f_cut, 0.9 * point_to_polygon_form_factor(x, n, to, down, scratch.lambert));
+  EXPECT_NEAR(f_reaching, f_cut, 1e-15);
 }
 
 // A whole shadow whose box overlaps P_j's but which misses P_j (a rotated quad beyond its corner

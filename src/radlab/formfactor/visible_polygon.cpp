@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <numbers>
 
@@ -219,6 +220,7 @@ struct Frame {
   Vec3 normal, e1, e2;
   const Vec2* flat;
   double area;
+  Vec2 lo, hi;  // P_j's box in the frame (when `flat` is given)
 };
 
 double visible(const Vec3& x, const Vec3& n, const Frame& to, std::span<const Occluder> occluders,
@@ -253,6 +255,25 @@ double visible(const Vec3& x, const Vec3& n, const Frame& to, std::span<const Oc
   };
   const double front_offset = glm::dot(to_normal, origin);
   const Vec2 x_flat = flat(x);
+  // The box in P_j's frame of the cone's part above kBelow dx (x's foot and P_j shrunk about it
+  // by 1 - kBelow), with a margin far above the roundings of the corners' frame coordinates.
+  bool topped = false;
+  Vec2 top_lo(0.0), top_hi(0.0);
+  double top_margin = 0.0;
+  auto set_up_top = [&] {
+    Vec2 lo = to.lo, hi = to.hi;
+    if (!to.flat) {
+      lo = Vec2(1e300), hi = Vec2(-1e300);
+      for (const Vec3& c : to.corners) lo = glm::min(lo, flat(c)), hi = glm::max(hi, flat(c));
+    }
+    const Vec2 a = x_flat + (1.0 - kBelow) * (lo - x_flat);
+    const Vec2 b = x_flat + (1.0 - kBelow) * (hi - x_flat);
+    top_lo = glm::min(x_flat, glm::min(a, b));
+    top_hi = glm::max(x_flat, glm::max(a, b));
+    const Vec2 span = glm::abs(hi - lo) + glm::abs(x_flat - lo);
+    top_margin = 1e-9 * (span.x + span.y);
+    topped = true;
+  };
   // The visible pieces of P_j: pieces[first[i], first[i + 1]) for i < piece_count.
   size_t piece_count = 0;
   for (const Occluder& o : occluders) {
@@ -268,15 +289,47 @@ double visible(const Vec3& x, const Vec3& n, const Frame& to, std::span<const Oc
     // (4 planes of the cone for each occluder; the shadow's edges along P_j's then split each
     // piece only to leave slivers).
     double* depth = room(s.depth, count);
+    Vec2* shadow = room(s.shadow, 2 * count);  // first the corners in P_j's frame
     double lowest = 1e300, highest = -1e300;
     for (size_t k = 0; k < count; ++k) {
       depth[k] = glm::dot(to_normal, poly[k] - origin);
+      shadow[k] = flat(poly[k]);
       lowest = std::min(lowest, depth[k]);
       highest = std::max(highest, depth[k]);
     }
     // Wholly above x: on no segment from x to P_j.
     if (lowest > dx) continue;
-    const bool below = lowest >= 0.0 && highest <= kBelow * dx;
+    bool below = lowest >= 0.0 && highest <= kBelow * dx;
+    if (!below && lowest >= 0.0) {
+      // Reaching higher, but perhaps only beside the cone's top: at a height above kBelow dx
+      // the cone's cross-section in P_j's frame is P_j shrunk about x's foot by at most
+      // 1 - kBelow, within `top`. An occluder whose box misses that loses nothing to a cut at
+      // kBelow dx (one plane, not the cone's 4), and the rest is projected whole.
+      if (!topped) set_up_top();
+      Vec2 olo(1e300), ohi(-1e300);
+      for (size_t k = 0; k < count; ++k)
+        olo = glm::min(olo, shadow[k]), ohi = glm::max(ohi, shadow[k]);
+      if (olo.x > top_hi.x + top_margin || olo.y > top_hi.y + top_margin ||
+          ohi.x < top_lo.x - top_margin || ohi.y < top_lo.y - top_margin) {
+        Vec3* out = room(s.clipped, 2 * count);
+        size_t kept = 0;
+        // Keeps kBelow dx - depth >= 0 (all of it above: beside the cone, it blocks nothing).
+        const Side side = clip3(poly, count, -to_normal, -(kBelow * dx + front_offset), out, kept,
+                                room(s.height, count));
+        if (side == Side::kOutside) continue;
+        if (side == Side::kBoth) {
+          poly = out;
+          count = kept;
+          depth = room(s.depth, count);
+          shadow = room(s.shadow, 2 * count);
+          for (size_t k = 0; k < count; ++k) {
+            depth[k] = glm::dot(to_normal, poly[k] - origin);
+            shadow[k] = flat(poly[k]);
+          }
+          below = true;
+        }
+      }
+    }
     if (!below) {
       if (!coned) set_up_cone();
       // The part of O in the cone from x over P_j, clipped back and forth between two buffers
@@ -307,12 +360,11 @@ double visible(const Vec3& x, const Vec3& n, const Frame& to, std::span<const Oc
     }
     // Its shadow: central projection from x onto P_j's plane. In the cone (or below x) d(y) <
     // d(x) (the occluder's plane misses x), so the divisor is positive.
-    Vec2* shadow = room(s.shadow, count);
+    shadow = room(s.shadow, count);
     const size_t ns = count;
-    if (below) {  // in P_j's frame: x_flat + t (flat(y) - x_flat), t = dx / (dx - dy) <= 1/(1 -
-                  // kBelow)
+    if (below) {  // in P_j's frame: x_flat + t (flat(y) - x_flat), t = dx / (dx - dy) <= 10
       for (size_t k = 0; k < ns; ++k)
-        shadow[k] = x_flat + (dx / (dx - depth[k])) * (flat(poly[k]) - x_flat);
+        shadow[k] = x_flat + (dx / (dx - depth[k])) * (shadow[k] - x_flat);
     } else {
       for (size_t k = 0; k < ns; ++k) {
         const Vec3& y = poly[k];
@@ -446,6 +498,9 @@ void VisibleTarget::set(std::span<const Vec3> to, const Vec3& to_normal) {
   for (size_t k = 0; k < corners.size(); ++k)
     flat[k] = Vec2(glm::dot(corners[k] - origin, e1), glm::dot(corners[k] - origin, e2));
   area = signed_area(flat.data(), flat.size());
+  lo = glm::dvec2(1e300);
+  hi = glm::dvec2(-1e300);
+  for (const glm::dvec2& f : flat) lo = glm::min(lo, f), hi = glm::max(hi, f);
 }
 
 double visible_form_factor(const Vec3& x, const Vec3& n, std::span<const Vec3> to,
@@ -453,14 +508,15 @@ double visible_form_factor(const Vec3& x, const Vec3& n, std::span<const Vec3> t
                            double epsilon, VisibleScratch& scratch, bool* blocked, bool* hidden) {
   // 2D frame of P_j's plane, right-handed about its normal (so P_j is counter-clockwise in it).
   const Vec3 e1 = glm::normalize(to[1] - to[0]);
-  const Frame frame{to, to_normal, e1, glm::cross(to_normal, e1), nullptr, 0.0};
+  const Frame frame{to,      to_normal, e1,        glm::cross(to_normal, e1),
+                    nullptr, 0.0,       Vec2(0.0), Vec2(0.0)};
   return visible(x, n, frame, occluders, epsilon, scratch, blocked, hidden);
 }
 
 double visible_form_factor(const Vec3& x, const Vec3& n, const VisibleTarget& to,
                            std::span<const Occluder> occluders, double epsilon,
                            VisibleScratch& scratch, bool* blocked, bool* hidden) {
-  const Frame frame{to.corners, to.normal, to.e1, to.e2, to.flat.data(), to.area};
+  const Frame frame{to.corners, to.normal, to.e1, to.e2, to.flat.data(), to.area, to.lo, to.hi};
   return visible(x, n, frame, occluders, epsilon, scratch, blocked, hidden);
 }
 

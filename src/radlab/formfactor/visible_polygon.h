@@ -68,6 +68,7 @@ struct VisibleTarget {
   Vec3 e1{0.0}, e2{0.0};          // the frame: origin corners[0], e1 along the first edge
   std::vector<glm::dvec2> flat;   // the corners in the frame
   double area = 0.0;              // P_j's area (from `flat`)
+  glm::dvec2 lo{0.0}, hi{0.0};    // P_j's box in the frame
 };
 
 // F_{dx -> visible part of `to`} for x with unit normal n. `occluders` may include polygons that
