@@ -99,8 +99,9 @@ class ExactFormFactors final : public FormFactorMethod {
   bool row_part(size_t i, size_t lo, size_t hi, std::span<double> out,
                 RowCost& cost) const override;
 
-  // F_ij, integrated over the smaller element of the pair (the lower index on equal areas) and
-  // turned around by reciprocity on the other side: pair(i, j) A_i == pair(j, i) A_j to
+  // F_ij, integrated over the smaller element of the pair (the lower index on equal areas; in
+  // clip mode sometimes the other one, see pair_integral) and turned around by reciprocity on
+  // the other side: pair(i, j) A_i == pair(j, i) A_j to
   // rounding, and each is within `tolerance` relative of the exact value. row(), row_part() and
   // build_matrix_symmetric() all give these bits (the symmetric build integrates each pair once).
   double pair(size_t i, size_t j, RowCost& cost) const;
