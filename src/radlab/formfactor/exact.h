@@ -204,8 +204,14 @@ class ExactFormFactors final : public FormFactorMethod {
   bool occluders_nearer(size_t i, size_t j, std::span<const Occluder> occluders) const;
   // Clip mode: F_ij over `from` (i's part in front of j's plane, `kept` of its area) past the
   // non-empty `occluders`, with the corner test, the contact splits and the work cap.
+  // `proven_hidden` (if given) is set when the corner test proved the pair 0.
+  // Clip mode: whether any point of a 6 x 6 Gauss rule over `from` sees part of `to` past the
+  // occluders (a probe before integrating a pair the other side found 0).
+  bool any_visible(size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to,
+                   std::span<const Occluder> occluders, RowCost& cost) const;
   double occluded(size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to,
-                  double kept, std::span<const Occluder> occluders, RowCost& cost) const;
+                  double kept, std::span<const Occluder> occluders, RowCost& cost,
+                  bool* proven_hidden = nullptr) const;
   double clipped_pair(size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to,
                       std::span<const Occluder> occluders, double floor, long long max_evaluations,
                       RowCost& cost, double* error) const;
