@@ -12,11 +12,11 @@
 
 #include <cmath>
 #include <cstdio>
-#include <glm/geometric.hpp>
 #include <vector>
 
 #include "radlab/formfactor/exact.h"
 #include "radlab/formfactor/visible_polygon.h"
+#include "radlab/scene/geometry.h"
 #include "radlab/scene/mesh.h"
 #include "radlab/scene/scene_loader.h"
 #include "tests/test_support.h"
@@ -39,6 +39,15 @@ std::vector<std::vector<Vec3>> box(double lo, double hi) {
           {{lo, hi, lo}, {lo, lo, lo}, {lo, lo, hi}, {lo, hi, hi}}};
 }
 
+// The floor element [0.625, 0.75]^2 (under the box's edge), a ceiling square [0.75, far]^2 at
+// height 1 and the box [0.25, 0.75]^3: elements 0 and 1 at one element a polygon.
+Scene under_box_edge(double far) {
+  std::vector<std::vector<Vec3>> polygons = {rect(0.625, 0.75, 0.625, 0.75, 0.0, true),
+                                             rect(0.75, far, 0.75, far, 1.0, false)};
+  for (const auto& face : box(0.25, 0.75)) polygons.push_back(face);
+  return testing::scene_of(polygons);
+}
+
 ExactFormFactors clip_at(const Scene& scene, const Mesh& mesh, double tolerance) {
   ExactOptions options;
   options.visibility_clip = true;
@@ -48,10 +57,7 @@ ExactFormFactors clip_at(const Scene& scene, const Mesh& mesh, double tolerance)
 }
 
 TEST(ClipSide, TheSideFartherFromTheOccludersConvergesFaster) {
-  std::vector<std::vector<Vec3>> polygons = {rect(0.625, 0.75, 0.625, 0.75, 0.0, true),
-                                             rect(0.75, 0.875, 0.75, 0.875, 1.0, false)};
-  for (const auto& face : box(0.25, 0.75)) polygons.push_back(face);
-  const Scene scene = testing::scene_of(polygons);
+  const Scene scene = under_box_edge(0.875);
   const Mesh mesh = build_mesh(scene, {1, 0.0});
   ASSERT_EQ(mesh.size(), 8u);
   ASSERT_TRUE(ExactFormFactors::integrates_from(mesh, 0, 1));  // equal areas: the floor
@@ -90,10 +96,7 @@ TEST(ClipSide, TheSideFartherFromTheOccludersConvergesFaster) {
 // Between elements of very different size the pair keeps the smaller side (the larger one's
 // narrow penumbra band is then the feature to resolve): the turn is limited to areas within 2x.
 TEST(ClipSide, ALargerFarElementIsNotTurnedTo) {
-  std::vector<std::vector<Vec3>> polygons = {rect(0.625, 0.75, 0.625, 0.75, 0.0, true),
-                                             rect(0.75, 1.0, 0.75, 1.0, 1.0, false)};
-  for (const auto& face : box(0.25, 0.75)) polygons.push_back(face);
-  const Scene scene = testing::scene_of(polygons);
+  const Scene scene = under_box_edge(1.0);
   const Mesh mesh = build_mesh(scene, {1, 0.0});
   ASSERT_TRUE(ExactFormFactors::integrates_from(mesh, 0, 1));  // the floor is 4x smaller
   const ExactFormFactors method = clip_at(scene, mesh, 2e-2);
@@ -127,14 +130,10 @@ TEST(ClipSide, AnUnprovenZeroIsCheckedFromTheOtherSide) {
   mesh.corners(b, cb);
   ASSERT_EQ(ca.size(), 4u);
   std::vector<Occluder> occluders;
-  std::vector<Vec3> normals(loaded.scene.polygons.size());
   for (size_t p = 0; p < loaded.scene.polygons.size(); ++p) {
     if (p == mesh.polygon[a] || p == mesh.polygon[b]) continue;
     const auto& v = loaded.scene.polygons[p].vertices;
-    Vec3 twice(0.0);
-    for (size_t k = 1; k + 1 < v.size(); ++k) twice += glm::cross(v[k] - v[0], v[k + 1] - v[0]);
-    normals[p] = glm::normalize(twice);
-    occluders.push_back({v, normals[p]});
+    occluders.push_back({v, geometry::unit_normal(v)});
   }
   VisibleScratch scratch;
   const int n = 400;

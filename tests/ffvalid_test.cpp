@@ -5,8 +5,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
-#include <filesystem>
 #include <glm/geometric.hpp>
 
 #include "radlab/formfactor/diagnostics.h"
@@ -388,10 +386,10 @@ TEST(ExactNearPairs, TightTolerancesOnNearCoplanarStripsConverge) {
 // 1.075 (office2: 9 rows above 1.0101) and 1.026 (corridor: 7 rows); brute force puts the
 // worst of them at 0.997-1.0008. office2 and corridor take several seconds each.
 void expect_renderpark_rows_within_stated_error(const std::string& name) {
-  const char* shared = std::getenv("RADLAB_SHARED_SCENES");
-  const std::string path = std::string(shared ? shared : "") + "/renderpark/" + name;
-  if (!std::filesystem::exists(path)) {
-    RADLAB_SHARED_MISSING(path << " not found");
+  std::string missing;
+  const std::string path = testing::shared_scene("renderpark/" + name, missing);
+  if (path.empty()) {
+    RADLAB_SHARED_MISSING(missing);
   }
   const LoadedScene loaded = load_scene(path, false);
   const Mesh mesh = build_mesh(loaded.scene, {});

@@ -7,8 +7,6 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <cstdlib>
-#include <fstream>
 #include <random>
 #include <string>
 #include <thread>
@@ -156,13 +154,10 @@ TEST(ShaftPolygonPairs, NeverLessThanTheElementLevelTestAndSound) {
 // office2 (RenderPark; 430 polygons, 16 elements each at subdiv 4) has pairs that only the polygon
 // tier proves clear: they must be clear for traced rays.
 TEST(ShaftPolygonPairs, PairsClearedByThePolygonTierAreClearInOffice2) {
-  const char* root = std::getenv("RADLAB_SHARED_SCENES");
-  if (!root || !*root) {
-    RADLAB_SHARED_MISSING("RADLAB_SHARED_SCENES is not set");
-  }
-  const std::string path = std::string(root) + "/renderpark/office2/office2.mgf";
-  if (!std::ifstream(path)) {
-    RADLAB_SHARED_MISSING(path << " is missing");
+  std::string missing;
+  const std::string path = testing::shared_scene("renderpark/office2/office2.mgf", missing);
+  if (path.empty()) {
+    RADLAB_SHARED_MISSING(missing);
   }
   Scene scene = load_scene(path, false).scene;
   Mesh mesh = build_mesh(scene, {4, 0.0});

@@ -7,8 +7,6 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <cstdlib>
-#include <fstream>
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <random>
@@ -82,13 +80,10 @@ TEST(SkippedEnds, GridsWithoutListsChangeNoVisibility) {
 // close pairs of 4,096 rays. The prefilter's first version, whose grid left out the pieces'
 // reach when it chose a neighbour's cells, changed V here and nowhere on the Cornell box.
 TEST(SkippedEnds, PrefilterChangesNoVisibilityOnALuminaire) {
-  const char* root = std::getenv("RADLAB_SHARED_SCENES");
-  if (!root || !*root) {
-    RADLAB_SHARED_MISSING("RADLAB_SHARED_SCENES is not set");
-  }
-  const std::string path = std::string(root) + "/renderpark/examp1.mgf";
-  if (!std::ifstream(path)) {
-    RADLAB_SHARED_MISSING(path << " is missing");
+  std::string missing;
+  const std::string path = testing::shared_scene("renderpark/examp1.mgf", missing);
+  if (path.empty()) {
+    RADLAB_SHARED_MISSING(missing);
   }
   Scene scene = load_scene(path, false).scene;
   const Mesh mesh = build_mesh(scene, {1, 0.0});

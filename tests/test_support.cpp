@@ -60,4 +60,18 @@ bool ci() {
   return value && std::string(value) == "true";
 }
 
+std::string shared_scene(const std::string& relative, std::string& missing) {
+  const char* root = std::getenv("RADLAB_SHARED_SCENES");
+  if (!root || !*root) {
+    missing = "RADLAB_SHARED_SCENES is not set";
+    return {};
+  }
+  const std::string path = std::string(root) + "/" + relative;
+  if (!std::ifstream(path)) {
+    missing = path + " is missing";
+    return {};
+  }
+  return path;
+}
+
 }  // namespace radlab::testing

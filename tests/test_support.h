@@ -59,6 +59,10 @@ CommandResult run_command(const std::string& shell_command);
 // True when the environment says CI=true (as GitHub Actions, GitLab CI and others set it).
 bool ci();
 
+// The shared scene `relative` (e.g. "renderpark/examp1.mgf") under RADLAB_SHARED_SCENES, or empty
+// with `missing` saying why (the variable unset, or no such file): for RADLAB_SHARED_MISSING.
+std::string shared_scene(const std::string& relative, std::string& missing);
+
 }  // namespace radlab::testing
 
 // For a test that needs the shared scenes (../shared, RADLAB_SHARED_SCENES) when they are

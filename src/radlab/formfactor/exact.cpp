@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <glm/geometric.hpp>
+#include <optional>
 
 #include "radlab/core/error.h"
 #include "radlab/core/text.h"
@@ -244,21 +245,22 @@ double ExactFormFactors::pair_integral(size_t i, size_t j, RowCost& cost, bool m
       // from the 11x larger ceiling) the narrow band from which the small one is half hidden is
       // the feature to resolve, and the rule stopped at its work cap stated 7x less error than it
       // made (clip_contact_test).
+      //
       // j's part in front of i's plane and its own candidates, for integrating over j, set up
       // when first needed. False when none is left (every candidate's plane separates j's front
       // part from i): then only the usual side, whose integral is as good, only slower.
       thread_local std::vector<Vec3> j_front;
       thread_local std::vector<Occluder> reversed;
       double j_kept = 0.0;
-      int j_state = -1;  // -1: not set up; 0: no integral over j; 1: ready
+      std::optional<bool> j_ready;
       auto j_possible = [&] {
-        if (j_state < 0) {
+        if (!j_ready) {
           j_front.assign(to.begin(), to.end());
           j_kept = clip_to_front(j_front, mesh_.centroid[i], mesh_.normal[i], plane_epsilon_);
           if (j_kept > 0.0) pair_occluders(j, i, j_front, corners(i), reversed);
-          j_state = j_kept > 0.0 && !reversed.empty() ? 1 : 0;
+          j_ready = j_kept > 0.0 && !reversed.empty();
         }
-        return j_state == 1;
+        return *j_ready;
       };
       auto over_i = [&](bool& proven) {
         return occluded(i, j, from, to, kept, occluders, cost, &proven);
@@ -597,11 +599,13 @@ bool ExactFormFactors::any_visible(size_t i, size_t j, std::span<const Vec3> fro
   constexpr double kSeen = 1e-15;
   thread_local QuadratureRule rule;
   thread_local VisibleScratch scratch;
+  thread_local VisibleTarget target;
   element_quadrature(from, 6, rule);
+  target.set(to, mesh_.normal[j]);
   for (size_t k = 0; k < rule.size(); ++k) {
     ++cost.kernel_evaluations;
-    if (visible_form_factor(Vec3(rule.x[k], rule.y[k], rule.z[k]), mesh_.normal[i], to,
-                            mesh_.normal[j], occluders, plane_epsilon_, scratch) > kSeen)
+    if (visible_form_factor(Vec3(rule.x[k], rule.y[k], rule.z[k]), mesh_.normal[i], target,
+                            occluders, plane_epsilon_, scratch) > kSeen)
       return true;
   }
   return false;

@@ -101,16 +101,17 @@ class ExactFormFactors final : public FormFactorMethod {
 
   // F_ij, integrated over the smaller element of the pair (the lower index on equal areas; in
   // clip mode sometimes the other one, see pair_integral) and turned around by reciprocity on
-  // the other side: pair(i, j) A_i == pair(j, i) A_j to
-  // rounding, and each is within `tolerance` relative of the exact value. row(), row_part() and
-  // build_matrix_symmetric() all give these bits (the symmetric build integrates each pair once).
+  // the other side: pair(i, j) A_i == pair(j, i) A_j to rounding, and each is within
+  // `tolerance` relative of the exact value. row(), row_part() and build_matrix_symmetric() all
+  // give these bits (the symmetric build integrates each pair once).
   double pair(size_t i, size_t j, RowCost& cost) const;
   // F_ij integrated over element i whatever the areas (the one-way integral pair() orients).
   // In clip mode, with `may_turn`, an occluded pair whose nearest occluder is clearly nearer i
   // than j, and whose j is at most twice i's area, is integrated over j instead and turned
   // around by reciprocity (the shadows then move slowly across the integrated element: far
-  // fewer kinks to resolve; docs/formfactors.md, "Which side to integrate"). Without it, always
-  // over i (two independent integrations of a pair, for tests).
+  // fewer kinks to resolve; docs/formfactors.md, "Which side to integrate"), and a zero that no
+  // single occluder proves is checked from the other side. Without it, always over i and
+  // nothing else (two independent integrations of a pair, for tests).
   double pair_integral(size_t i, size_t j, RowCost& cost, bool may_turn = true) const;
   // For every j in (i, n): out[j] = the pair's integral over its integrated side a
   // (integrates_from), pair_integral(a, b), the same bits and costs. The pairs of a batch take
@@ -202,13 +203,13 @@ class ExactFormFactors final : public FormFactorMethod {
   // Whether the nearest occluder is clearly nearer i's centroid than j's (then the pair is
   // integrated over j: smaller, slower shadows).
   bool occluders_nearer(size_t i, size_t j, std::span<const Occluder> occluders) const;
-  // Clip mode: F_ij over `from` (i's part in front of j's plane, `kept` of its area) past the
-  // non-empty `occluders`, with the corner test, the contact splits and the work cap.
-  // `proven_hidden` (if given) is set when the corner test proved the pair 0.
   // Clip mode: whether any point of a 6 x 6 Gauss rule over `from` sees part of `to` past the
   // occluders (a probe before integrating a pair the other side found 0).
   bool any_visible(size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to,
                    std::span<const Occluder> occluders, RowCost& cost) const;
+  // Clip mode: F_ij over `from` (i's part in front of j's plane, `kept` of its area) past the
+  // non-empty `occluders`, with the corner test, the contact splits and the work cap.
+  // `proven_hidden` (if given) is set when the corner test proved the pair 0.
   double occluded(size_t i, size_t j, std::span<const Vec3> from, std::span<const Vec3> to,
                   double kept, std::span<const Occluder> occluders, RowCost& cost,
                   bool* proven_hidden = nullptr) const;
