@@ -22,6 +22,9 @@
 // Quote the ratios from one run; absolute times on this machine are noisy. Kernels: no suffix =
 // the default (AVX2 where the CPU has it; the label names the set that ran), /avx512 = the
 // AVX-512 versions, /scalar = the scalar ones.
+// kernel/GatherPair: two rows a pass (kernels::gather_pair, as Jacobi and conjugate gradients
+// read dense rows), per row; its label is the active set, but RGB pairs run on AVX-512 wherever
+// it is permitted (kernels.cpp, pair_set).
 // rgb/gapped/*: one RGB gather and one RGB sorted shot on a matrix with half its entries zero,
 // dense, sparse through a scratch row, and sparse through kernels::RunRow (the sparse layout's
 // path).
@@ -280,6 +283,28 @@ void BM_GatherKernel(benchmark::State& state, const Problem* p, Kernels k) {
   kernels::use_vector_kernels(true);
 }
 
+// The paired gather kernel (Jacobi's and conjugate gradients' dense rows): rows i and i+1 in one
+// pass, rows in order; reported per row.
+void BM_GatherPairKernel(benchmark::State& state, const Problem* p, Kernels k) {
+  use(state, k);
+  const System& sys = *p->system;
+  const size_t n = sys.size();
+  double out[2][3];
+  size_t row = 0;
+  const double start = cpu_seconds();
+  for (auto _ : state) {
+    const size_t i = row % (n - 1);
+    kernels::gather_pair(p->matrix.row_f32(i), p->matrix.row_f32(i + 1), sys.emission(), out[0],
+                         out[1]);
+    benchmark::DoNotOptimize(out[0][0]);
+    benchmark::DoNotOptimize(out[1][0]);
+    row += 2;
+  }
+  const double s = cpu_seconds() - start;
+  report(state, *p, Order::kInOrder, row, s);
+  kernels::use_vector_kernels(true);
+}
+
 // The RGB problem's matrix with half its entries zero in blocks of 64 columns (a culled or
 // occluded polygon: every other block of each row, alternating from row to row), in the dense
 // and in the sparse layout, to time one sorted shot on each form of the same rows.
@@ -377,6 +402,8 @@ void register_all() {
     for (Kernels k : {Kernels::kDefault, Kernels::kAvx512}) {
       const std::string end = suffix(k);
       benchmark::RegisterBenchmark((tag + "/kernel/Gather" + end).c_str(), BM_GatherKernel, p, k);
+      benchmark::RegisterBenchmark((tag + "/kernel/GatherPair" + end).c_str(), BM_GatherPairKernel,
+                                   p, k);
       benchmark::RegisterBenchmark((tag + "/kernel/Shot(no selection)" + end).c_str(),
                                    BM_ShotKernel, p, false, false, k);
       benchmark::RegisterBenchmark((tag + "/kernel/Shot(fused selection)" + end).c_str(),

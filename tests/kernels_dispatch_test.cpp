@@ -113,6 +113,66 @@ TEST_P(VectorSet, GatherAndGatherScatterScalarEqualsVector) {
   }
 }
 
+// Two rows gathered in one pass (Jacobi's and conjugate gradients' dense rows) give each row's
+// single gather bits: on this set (for RGB under an explicit AVX2, two single gathers; under
+// AVX-512, the paired loop) and on the scalar path.
+TEST_P(VectorSet, GatherPairEqualsTwoScalarGathers) {
+  Pcg32 rng(13);
+  for (size_t n : {1u, 15u, 16u, 17u, 333u, 1000u}) {
+    std::vector<float> Ff[2] = {std::vector<float>(n), std::vector<float>(n)};
+    std::vector<double> Fd[2] = {std::vector<double>(n), std::vector<double>(n)};
+    for (int r = 0; r < 2; ++r)
+      for (size_t j = 0; j < n; ++j) {
+        Fd[r][j] = rng.next_double() * 1e-2;
+        Ff[r][j] = float(Fd[r][j]);
+      }
+    for (int C : {1, 3}) {
+      Radiosity x(C, n);
+      for (double& v : x.raw()) v = rng.next_double() - 0.3;
+      for (bool use_float : {true, false}) {
+        double want[2][3] = {}, got[2][3] = {};
+        use(false);
+        for (int r = 0; r < 2; ++r)
+          use_float ? kernels::gather(Ff[r].data(), x, want[r])
+                    : kernels::gather(Fd[r].data(), x, want[r]);
+        for (int vector : {0, 1}) {
+          use(vector);
+          use_float ? kernels::gather_pair(Ff[0].data(), Ff[1].data(), x, got[0], got[1])
+                    : kernels::gather_pair(Fd[0].data(), Fd[1].data(), x, got[0], got[1]);
+          for (int r = 0; r < 2; ++r)
+            EXPECT_TRUE(same_bits(want[r], got[r], size_t(C)))
+                << "gather_pair row " << r << " n=" << n << " C=" << C << " float=" << use_float
+                << " vector=" << vector;
+        }
+      }
+    }
+  }
+}
+
+// The default kernels: AVX2 for every kernel, but the RGB pair on AVX-512 where the CPU has it
+// (kernels.cpp, pair_set). The same bits as the scalar gathers either way.
+TEST(KernelsDispatch, DefaultGatherPairEqualsScalarGathers) {
+  Pcg32 rng(17);
+  const size_t n = 1001;
+  std::vector<float> F0(n), F1(n);
+  for (size_t j = 0; j < n; ++j) {
+    F0[j] = float(rng.next_double() * 1e-2);
+    F1[j] = float(rng.next_double() * 1e-2);
+  }
+  for (int C : {1, 3}) {
+    Radiosity x(C, n);
+    for (double& v : x.raw()) v = rng.next_double();
+    double want[2][3] = {}, got[2][3] = {};
+    ASSERT_TRUE(kernels::use_kernels(kernels::KernelSet::kScalar));
+    kernels::gather(F0.data(), x, want[0]);
+    kernels::gather(F1.data(), x, want[1]);
+    kernels::use_vector_kernels(true);
+    kernels::gather_pair(F0.data(), F1.data(), x, got[0], got[1]);
+    EXPECT_TRUE(same_bits(want[0], got[0], size_t(C))) << "C=" << C;
+    EXPECT_TRUE(same_bits(want[1], got[1], size_t(C))) << "C=" << C;
+  }
+}
+
 // The shot's arrays, each test case starting from the same values.
 struct ShotState {
   std::vector<double> dB, coverage, offset;
@@ -422,6 +482,53 @@ TEST(KernelsDispatch, SolversOnSparseMatrixEqualDense) {
       ASSERT_EQ(result[0].raw().size(), result[1].raw().size());
       EXPECT_TRUE(same_bits(result[0].raw().data(), result[1].raw().data(), result[0].raw().size()))
           << scene_name << ": " << name;
+    }
+  }
+}
+
+// Jacobi and conjugate gradients read two dense rows a pass (System::with_dense_rows); on a
+// sparse matrix with the same entries they read one row at a time. Every step's solution is the
+// same bits, and the same rows have been counted after every step (Jacobi charges a paired row
+// at the step that uses it).
+TEST(KernelsDispatch, PairedRowsGiveEveryStepsBits) {
+  for (const std::string scene_name : {"cornell", "cube"}) {
+    Scene scene = make_builtin_scene(scene_name);
+    validate_scene(scene);
+    const Mesh mesh = build_mesh(scene, {3, 0.0});
+    const size_t n = mesh.size();
+    FormFactorMatrix dense(n, Precision::kFloat), sparse(n, Precision::kFloat, Layout::kSparse);
+    Pcg32 rng(23);
+    std::vector<std::vector<double>> rows(n, std::vector<double>(n, 0.0));
+    for (size_t i = 0; i < n; ++i)
+      for (size_t j = i + 1; j < n; ++j) {
+        const double g = 1.6 * rng.next_double() * std::min(mesh.area[i], mesh.area[j]) / double(n);
+        rows[i][j] = g / mesh.area[i];
+        rows[j][i] = g / mesh.area[j];
+      }
+    for (size_t i = 0; i < n; ++i) {
+      dense.set_row(i, rows[i]);
+      sparse.set_row(i, rows[i]);
+    }
+    const System on_dense(scene, mesh, dense), on_sparse(scene, mesh, sparse);
+    for (const std::string name : {"jacobi", "conjugate-gradient"}) {
+      ParamBag bags[2] = {ParamBag::from_assignments({}, name),
+                          ParamBag::from_assignments({}, name)};
+      auto paired = make_solver(name, bags[0]);
+      auto single = make_solver(name, bags[1]);
+      on_dense.reset_counters();
+      on_sparse.reset_counters();
+      paired->init(on_dense);
+      single->init(on_sparse);
+      const size_t steps = name == "jacobi" ? 2 * n + 1 : 6;  // over two sweeps, odd n or not
+      for (size_t step = 0; step < steps; ++step) {
+        const bool done = paired->step().finished;
+        EXPECT_EQ(done, single->step().finished);
+        const Radiosity &a = paired->solution(), &b = single->solution();
+        ASSERT_TRUE(same_bits(a.raw().data(), b.raw().data(), a.raw().size()))
+            << scene_name << ": " << name << " differs after step " << step;
+        EXPECT_EQ(on_dense.rows_used(), on_sparse.rows_used()) << name << " step " << step;
+        if (done) break;
+      }
     }
   }
 }

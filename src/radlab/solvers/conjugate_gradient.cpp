@@ -211,12 +211,33 @@ class ConjugateGradientSolver final : public Solver {
     const auto area = system_->area();
     double sums[3] = {0.0, 0.0, 0.0};
     if (!symmetric) {
-      for (size_t i : active_)
+      // Two rows a pass where the matrix is dense (kernels::gather_pair reads v once for both;
+      // the same bits as one row at a time).
+      double next_sums[3] = {0.0, 0.0, 0.0};
+      for (size_t a = 0; a < active_.size();) {
+        const size_t i = active_[a];
+        if (a + 1 < active_.size()) {
+          const size_t k = active_[a + 1];
+          if (system_->with_dense_rows(i, k, [&](const auto* F, const auto* F_next) {
+                visit(i, F);
+                visit(k, F_next);
+                kernels::gather_pair(F, F_next, v, sums, next_sums);
+              })) {
+            for (int c = 0; c < channels; ++c) {
+              out.at(c, i) = area[i] * sums[c];
+              out.at(c, k) = area[k] * next_sums[c];
+            }
+            a += 2;
+            continue;
+          }
+        }
         system_->with_row(i, [&](const auto* F) {
           visit(i, F);
           kernels::gather(F, v, sums);
           for (int c = 0; c < channels; ++c) out.at(c, i) = area[i] * sums[c];
         });
+        ++a;
+      }
       return;
     }
     for (double& s : scatter_.raw()) s = 0.0;

@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <limits>
+#include <optional>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -329,6 +330,19 @@ std::atomic<KernelSet>& active_set() {
   return set;
 }
 
+// The widest set a kernel may use where the active set is the slower choice for it (the paired
+// RGB gather): AVX-512 where the CPU has it, unless RADLAB_KERNELS or use_kernels() asked for a
+// narrower set.
+KernelSet widest_permitted() {
+  const std::string value = kernel_environment();
+  if (value == "scalar") return KernelSet::kScalar;
+  return best_up_to(value == "avx2" ? KernelSet::kAvx2 : KernelSet::kAvx512);
+}
+std::atomic<KernelSet>& widest_set() {
+  static std::atomic<KernelSet> set{widest_permitted()};
+  return set;
+}
+
 KernelSet active() {
   return active_set().load(std::memory_order_relaxed);
 }
@@ -375,6 +389,59 @@ void gather_dispatch(const Row& F, const Radiosity& x, double* out) {
   }
   if (x.channels() == 1) return gather_channels<1, kClamp>(F, n, ptr, out);
   gather_channels<3, kClamp>(F, n, ptr, out);
+}
+
+// The set a paired gather of C channels runs on, or nullopt for two single gathers. RGB pairs keep
+// 2 x 3 x 16 lane sums: 24 AVX2 registers' worth, more than the 16 there are, and with them
+// spilled the AVX2 pair was slower than two single gathers (2.2 against 1.9 us a row on a hot
+// row, Zen 4). In AVX-512's 32 registers they fit and the pair takes a quarter off (docs/
+// performance.md, "Two rows a pass"), so RGB pairs run on AVX-512 wherever it is permitted, the
+// default included, where every other kernel stays on AVX2. Grey pairs (8 sums) fit either set.
+std::optional<KernelSet> pair_set(int channels) {
+  const KernelSet set = active();
+  if (channels == 1 || set == KernelSet::kScalar || set == KernelSet::kAvx512) return set;
+  if (widest_set().load(std::memory_order_relaxed) == KernelSet::kAvx512) return KernelSet::kAvx512;
+  return std::nullopt;
+}
+
+template <class T, int C>
+void gather_pair_channels(const T* F0, const T* F1, size_t n, const double* const* x, double* out0,
+                          double* out1) {
+  const std::optional<KernelSet> set = pair_set(C);
+  if (!set) {
+    gather_channels<C, false>(F0, n, x, out0);
+    gather_channels<C, false>(F1, n, x, out1);
+    return;
+  }
+  double s[2][C][kLanes] = {};
+  switch (*set) {
+#ifdef RADLAB_HAVE_VECTOR_KERNELS
+    case KernelSet::kAvx512:
+      avx512::gather_pair_lanes<T, C>(F0, F1, n, x, s);
+      break;
+    case KernelSet::kAvx2:
+      avx2::gather_pair_lanes<T, C>(F0, F1, n, x, s);
+      break;
+#endif
+    case KernelSet::kScalar:
+      gather_lanes_scalar<T, C, false>(F0, 0, n, x, s[0]);
+      gather_lanes_scalar<T, C, false>(F1, 0, n, x, s[1]);
+  }
+  for (int c = 0; c < C; ++c) {
+    out0[c] = combine(s[0][c]);
+    out1[c] = combine(s[1][c]);
+  }
+}
+
+template <class T>
+void gather_pair_dispatch(const T* F0, const T* F1, const Radiosity& x, double* out0,
+                          double* out1) {
+  const size_t n = x.size();
+  const double* ptr[3] = {x.channel(0).data(), nullptr, nullptr};
+  if (x.channels() == 1) return gather_pair_channels<T, 1>(F0, F1, n, ptr, out0, out1);
+  ptr[1] = x.channel(1).data();
+  ptr[2] = x.channel(2).data();
+  gather_pair_channels<T, 3>(F0, F1, n, ptr, out0, out1);
 }
 
 template <class T>
@@ -575,6 +642,13 @@ void gather(const double* F, const Radiosity& x, double* out, bool clamp_negativ
   if (clamp_negative) return gather_dispatch<true>(F, x, out);
   gather_dispatch<false>(F, x, out);
 }
+void gather_pair(const float* F0, const float* F1, const Radiosity& x, double* out0, double* out1) {
+  gather_pair_dispatch(F0, F1, x, out0, out1);
+}
+void gather_pair(const double* F0, const double* F1, const Radiosity& x, double* out0,
+                 double* out1) {
+  gather_pair_dispatch(F0, F1, x, out0, out1);
+}
 void gather(const RunRow<float>& F, const Radiosity& x, double* out, bool clamp_negative) {
   if (clamp_negative) return gather_dispatch<true>(F, x, out);
   gather_dispatch<false>(F, x, out);
@@ -674,6 +748,7 @@ bool kernels_available(KernelSet set) {
 bool use_kernels(KernelSet set) {
   if (!cpu_has(set)) return false;
   active_set().store(set);
+  widest_set().store(set);
   return true;
 }
 
@@ -709,6 +784,7 @@ void check_kernel_environment() {
 bool use_vector_kernels(bool enable) {
   const KernelSet set = enable ? default_vector_set() : KernelSet::kScalar;
   active_set().store(set);
+  widest_set().store(enable ? best_up_to(std::max(set, widest_permitted())) : set);
   return set != KernelSet::kScalar;
 }
 

@@ -26,6 +26,13 @@ void gather(const double* F, const Radiosity& x, double* out, bool clamp_negativ
 void gather(const RunRow<float>& F, const Radiosity& x, double* out, bool clamp_negative = false);
 void gather(const RunRow<double>& F, const Radiosity& x, double* out, bool clamp_negative = false);
 
+// gather(F0, x, out0) and gather(F1, x, out1), the same bits each, in one pass that loads x once
+// for both rows: the RGB gathers read 24 bytes of x from L2 per 4-byte entry of a float row, and
+// that traffic, not the row's, bounded them (docs/performance.md, "Two rows a pass").
+void gather_pair(const float* F0, const float* F1, const Radiosity& x, double* out0, double* out1);
+void gather_pair(const double* F0, const double* F1, const Radiosity& x, double* out0,
+                 double* out1);
+
 // out[c] = sum_j F[j] * x_c[j] (as gather) and, in the same pass, z_c[j] += a[c] * F[j] for every
 // j: the row's contribution to F^T z. One streaming pass gives both A F p and (A F)^T p, the
 // symmetric part that conjugate gradients needs when F itself is not reciprocal.
@@ -109,7 +116,9 @@ void unshot_power(const ShotTargets& targets, size_t n, bool clamp_negative, dou
 // they were measured on, the AVX-512 versions were nowhere clearly faster (docs/performance.md).
 // The environment variable RADLAB_KERNELS chooses otherwise: "scalar" forces the scalar
 // versions, "avx512" asks for AVX-512 (where the CPU has it), "avx2", "auto" or nothing the
-// default. Every set gives the same bits.
+// default. Every set gives the same bits. One kernel departs from the active set: the RGB
+// gather_pair runs on AVX-512 wherever it is permitted (not under "avx2" or use_kernels(kAvx2)),
+// because its 24 vectors of sums do not fit AVX2's 16 registers (kernels.cpp, pair_set).
 enum class KernelSet { kScalar, kAvx2, kAvx512 };
 // Whether this build and CPU can run `set` (kScalar: always).
 bool kernels_available(KernelSet set);

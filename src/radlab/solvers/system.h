@@ -79,6 +79,23 @@ class System {
     fn(static_cast<const double*>(scratch.data()));
   }
 
+  // Rows i and k at once, for kernels that read two rows in one pass (kernels::gather_pair): when
+  // both are stored whole in a dense matrix, calls fn(const T* row_i, const T* row_k), counts
+  // row i, and row k too unless count_k is false, and returns true; otherwise does nothing and
+  // returns false (the caller reads them one at a time). With count_k false the caller charges
+  // row k with count_row() at the step that uses its result (Jacobi: one row a step).
+  template <class Fn>
+  bool with_dense_rows(size_t i, size_t k, Fn&& fn, bool count_k = true) const {
+    if (!matrix_ || matrix_->sparse()) return false;
+    count_row();
+    if (count_k) count_row();
+    if (matrix_->precision() == Precision::kFloat)
+      fn(matrix_->row_f32(i), matrix_->row_f32(k));
+    else
+      fn(matrix_->row_f64(i), matrix_->row_f64(k));
+    return true;
+  }
+
   // As with_row, but a row that a sparse matrix stores in part is handed over as it is stored:
   // fn(kernels::RunRow<T>) (solvers/kernels_row.h) instead of fn(const T*) with the row expanded
   // into a scratch row of n values. For kernels that take both (kernels::gather, shoot): the same
@@ -126,6 +143,12 @@ class System {
     rows_used_.fetch_add(1, std::memory_order_relaxed);
     pair_evaluations_.fetch_add(pairs, std::memory_order_relaxed);
     patch_rows_->visit_row(p, fn);
+  }
+
+  // Counts one row read earlier and not yet counted (with_dense_rows with count_k = false).
+  void count_row() const {
+    rows_used_.fetch_add(1, std::memory_order_relaxed);
+    pair_evaluations_.fetch_add(size(), std::memory_order_relaxed);
   }
 
   // The dense matrix when rows come from one (null when computed on the fly).
