@@ -486,8 +486,9 @@ TEST(KernelsDispatch, SolversOnSparseMatrixEqualDense) {
   }
 }
 
-// Jacobi and conjugate gradients read two dense rows a pass (System::with_dense_rows); on a
-// sparse matrix with the same entries they read one row at a time. Every step's solution is the
+// Jacobi, conjugate gradients and interleaving's gathers read two dense rows a pass
+// (System::with_dense_rows); on a sparse matrix with the same entries they read one row at a
+// time. Every step's solution is the
 // same bits, and the same rows have been counted after every step (Jacobi charges a paired row
 // at the step that uses it).
 TEST(KernelsDispatch, PairedRowsGiveEveryStepsBits) {
@@ -510,16 +511,23 @@ TEST(KernelsDispatch, PairedRowsGiveEveryStepsBits) {
       sparse.set_row(i, rows[i]);
     }
     const System on_dense(scene, mesh, dense), on_sparse(scene, mesh, sparse);
-    for (const std::string name : {"jacobi", "conjugate-gradient"}) {
-      ParamBag bags[2] = {ParamBag::from_assignments({}, name),
-                          ParamBag::from_assignments({}, name)};
+    const std::vector<std::pair<std::string, std::vector<std::string>>> solvers = {
+        {"jacobi", {}},
+        {"conjugate-gradient", {}},
+        // Gathering sessions of 7 (odd: the last gather of a session goes alone).
+        {"interleaved", {"shots=10", "gathers=7", "max_sessions=2"}},
+    };
+    for (const auto& [name, params] : solvers) {
+      ParamBag bags[2] = {ParamBag::from_assignments(params, name),
+                          ParamBag::from_assignments(params, name)};
       auto paired = make_solver(name, bags[0]);
       auto single = make_solver(name, bags[1]);
       on_dense.reset_counters();
       on_sparse.reset_counters();
       paired->init(on_dense);
       single->init(on_sparse);
-      const size_t steps = name == "jacobi" ? 2 * n + 1 : 6;  // over two sweeps, odd n or not
+      // Jacobi over two sweeps (odd n or not), interleaved over six sessions of each kind.
+      const size_t steps = name == "jacobi" ? 2 * n + 1 : name == "interleaved" ? 102 : 6;
       for (size_t step = 0; step < steps; ++step) {
         const bool done = paired->step().finished;
         EXPECT_EQ(done, single->step().finished);
