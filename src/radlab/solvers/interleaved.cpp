@@ -52,8 +52,8 @@
 // Parameters: shots (>= 1), gathers (>= 0; 0 = sorted shooting that records dff), max_sessions
 //   (>= 1); defaults: `radlab solvers` (InterleavedOptions).
 // Cost per step: one form-factor row (a shot or a gather; on a dense matrix two gathers of a
-//   session share one pass over its snapshot, kernels::gather_pair, each charged at its own
-//   step, the same bits). A shot whose shooter has unshot
+//   session share one pass over its snapshot, paired_gather.h, each charged at its own step, the
+//   same bits). A shot whose shooter has unshot
 //   radiosity that some session already gathered adds one multiply-add per member of that
 //   session; a session change costs O(n log n) without rows (sorting by dff, a snapshot, a scan).
 // Left out: gathers that see the radiosity gathered earlier in the same session (all gathers of
@@ -62,7 +62,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <iterator>
+#include <optional>
 #include <type_traits>
 
 #include "radlab/core/error.h"
@@ -105,7 +105,7 @@ void InterleavedSolver::init(const System& system) {
   next_session_id_ = 0;
   gather_queue_.clear();
   gather_next_ = 0;
-  paired_ = false;
+  pairs_.reset();
   session_count_ = 0;
   last_action_ = {};
   start_shooting();
@@ -298,23 +298,10 @@ void InterleavedSolver::gather_step() {
   const int channels = core_.channels();
   const System& system = core_.system();
   double gathered[3] = {0.0, 0.0, 0.0};
-  if (paired_) {  // gathered with the previous gather, from the same snapshot
-    std::copy(std::begin(paired_sum_), std::end(paired_sum_), gathered);
-    system.count_row();
-    paired_ = false;
-  } else {
-    // Two gathers a pass where the matrix is dense; the second is charged its row at its own
-    // step (as jacobi.cpp).
-    paired_ = gather_next_ < gather_queue_.size() &&
-              system.with_dense_rows(
-                  r, gather_queue_[gather_next_],
-                  [&](const auto* F, const auto* F_next) {
-                    kernels::gather_pair(F, F_next, q.snapshot, gathered, paired_sum_);
-                  },
-                  /*count_k=*/false);
-    if (!paired_)
-      system.with_compact_row(r, [&](const auto& F) { kernels::gather(F, q.snapshot, gathered); });
-  }
+  // A session's gathers all read its snapshot: two a pass on a dense matrix.
+  const bool more = gather_next_ < gather_queue_.size();
+  pairs_.gather(system, r, more ? std::optional<size_t>(gather_queue_[gather_next_]) : std::nullopt,
+                q.snapshot, gathered);
   for (int c = 0; c < channels; ++c) {
     const double B_new = system.emission().at(c, r) + system.reflectance().at(c, r) * gathered[c];
     const double B_old = core_.shot().at(c, r) + core_.unshot().at(c, r);

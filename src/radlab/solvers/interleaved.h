@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "radlab/core/param_bag.h"
+#include "radlab/solvers/paired_gather.h"
 #include "radlab/solvers/shooting_core.h"
 #include "radlab/solvers/solver.h"
 
@@ -77,10 +78,7 @@ class InterleavedSolver final : public Solver {
   long long shots_done_ = 0;
   std::vector<size_t> gather_queue_;
   size_t gather_next_ = 0;
-  // The next gather's sum, from the last gather's paired pass (a session's gathers all read its
-  // snapshot, so two can share one pass over it: kernels::gather_pair).
-  bool paired_ = false;
-  double paired_sum_[3] = {0.0, 0.0, 0.0};
+  PairedGather pairs_;           // a session's gathers two a pass on a dense matrix
   long long session_count_ = 0;  // shooting sessions started
   std::vector<double> dff_;
   std::vector<uint8_t> shot_in_session_;

@@ -8,18 +8,17 @@
 // Paper: the textbook baseline (Cohen & Wallace 1993, ch. 5).
 // Parameters: omega (damping in (0,1]); defaults: `radlab solvers` (JacobiOptions).
 // Cost per step: one form-factor row. On a dense matrix rows i and i+1 are gathered in one pass
-//   at step i (kernels::gather_pair: the previous sweep's B, the same for both, is read once),
-//   and step i+1 takes its sum from that pass and is charged its row then: one row a step and
-//   every step's solution the same bits as one row a pass; only the second row's time falls in
-//   step i.
+//   at step i (paired_gather.h: the previous sweep's B is read once for both), step i+1 is
+//   charged its row: one row a step, every step's solution the same bits as one row a pass; only
+//   the second row's time falls in step i.
 // Left out: nothing; it is the slowest gathering method by design, kept as the baseline.
-#include <algorithm>
-#include <iterator>
+#include <optional>
 
 #include "radlab/core/error.h"
 #include "radlab/core/text.h"
 #include "radlab/solvers/gathering.h"
 #include "radlab/solvers/kernels.h"
+#include "radlab/solvers/paired_gather.h"
 
 namespace radlab {
 namespace {
@@ -48,28 +47,15 @@ class JacobiSolver final : public Solver {
     previous_ = system.emission();
     current_ = previous_;
     next_ = 0;
-    paired_ = false;
+    pairs_.reset();
   }
 
   StepInfo step() override {
     const size_t i = next_;
     double gathered[3] = {0.0, 0.0, 0.0};
-    if (paired_) {  // row i was gathered with row i - 1, from the same previous_
-      std::copy(std::begin(paired_sum_), std::end(paired_sum_), gathered);
-      system_->count_row();
-      paired_ = false;
-    } else {
-      paired_ = i + 1 < current_.size() &&
-                system_->with_dense_rows(
-                    i, i + 1,
-                    [&](const auto* F, const auto* F_next) {
-                      kernels::gather_pair(F, F_next, previous_, gathered, paired_sum_);
-                    },
-                    /*count_k=*/false);
-      if (!paired_)
-        system_->with_compact_row(i,
-                                  [&](const auto& F) { kernels::gather(F, previous_, gathered); });
-    }
+    const bool more = i + 1 < current_.size();  // a pair never crosses the sweep's end
+    pairs_.gather(*system_, i, more ? std::optional<size_t>(i + 1) : std::nullopt, previous_,
+                  gathered);
     for (int c = 0; c < current_.channels(); ++c) {
       const double target =
           system_->emission().at(c, i) + system_->reflectance().at(c, i) * gathered[c];
@@ -89,8 +75,7 @@ class JacobiSolver final : public Solver {
   const System* system_ = nullptr;
   Radiosity previous_, current_;
   size_t next_ = 0;
-  bool paired_ = false;                     // row next_'s sum is in paired_sum_
-  double paired_sum_[3] = {0.0, 0.0, 0.0};  // from the last step's paired gather
+  PairedGather pairs_;  // rows i and i+1 in one pass on a dense matrix
 };
 
 }  // namespace

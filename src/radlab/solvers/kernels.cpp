@@ -395,8 +395,9 @@ void gather_dispatch(const Row& F, const Radiosity& x, double* out) {
 // 2 x 3 x 16 lane sums: 24 AVX2 registers' worth, more than the 16 there are, and with them
 // spilled the AVX2 pair was slower than two single gathers (2.2 against 1.9 us a row on a hot
 // row, Zen 4). In AVX-512's 32 registers they fit and the pair takes a quarter off (docs/
-// performance.md, "Two rows a pass"), so RGB pairs run on AVX-512 wherever it is permitted, the
-// default included, where every other kernel stays on AVX2. Grey pairs (8 sums) fit either set.
+// performance.md, "Stop 29: two rows a pass"), so RGB pairs run on AVX-512 wherever it is
+// permitted, the default included, where every other kernel stays on AVX2. Grey pairs (8 sums) fit
+// either set.
 std::optional<KernelSet> pair_set(int channels) {
   const KernelSet set = active();
   if (channels == 1 || set == KernelSet::kScalar || set == KernelSet::kAvx512) return set;
@@ -414,18 +415,16 @@ void gather_pair_channels(const T* F0, const T* F1, size_t n, const double* cons
     return;
   }
   double s[2][C][kLanes] = {};
-  switch (*set) {
 #ifdef RADLAB_HAVE_VECTOR_KERNELS
-    case KernelSet::kAvx512:
-      avx512::gather_pair_lanes<T, C>(F0, F1, n, x, s);
-      break;
-    case KernelSet::kAvx2:
-      avx2::gather_pair_lanes<T, C>(F0, F1, n, x, s);
-      break;
+  if (*set == KernelSet::kAvx512)
+    avx512::gather_pair_lanes<T, C>(F0, F1, n, x, s);
+  else if (*set == KernelSet::kAvx2)
+    avx2::gather_pair_lanes<T, C>(F0, F1, n, x, s);
+  else
 #endif
-    case KernelSet::kScalar:
-      gather_lanes_scalar<T, C, false>(F0, 0, n, x, s[0]);
-      gather_lanes_scalar<T, C, false>(F1, 0, n, x, s[1]);
+  {
+    gather_lanes_scalar<T, C, false>(F0, 0, n, x, s[0]);
+    gather_lanes_scalar<T, C, false>(F1, 0, n, x, s[1]);
   }
   for (int c = 0; c < C; ++c) {
     out0[c] = combine(s[0][c]);

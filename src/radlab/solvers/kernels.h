@@ -28,7 +28,7 @@ void gather(const RunRow<double>& F, const Radiosity& x, double* out, bool clamp
 
 // gather(F0, x, out0) and gather(F1, x, out1), the same bits each, in one pass that loads x once
 // for both rows: the RGB gathers read 24 bytes of x from L2 per 4-byte entry of a float row, and
-// that traffic, not the row's, bounded them (docs/performance.md, "Two rows a pass").
+// that traffic, not the row's, bounded them (docs/performance.md, "Stop 29: two rows a pass").
 void gather_pair(const float* F0, const float* F1, const Radiosity& x, double* out0, double* out1);
 void gather_pair(const double* F0, const double* F1, const Radiosity& x, double* out0,
                  double* out1);
