@@ -23,8 +23,9 @@
 // the default (AVX2 where the CPU has it; the label names the set that ran), /avx512 = the
 // AVX-512 versions, /scalar = the scalar ones.
 // kernel/GatherPair: two rows a pass (kernels::gather_pair, as Jacobi and conjugate gradients
-// read dense rows), per row; its label is the active set, but RGB pairs run on AVX-512 wherever
-// it is permitted (kernels.cpp, pair_set).
+// read dense rows), per row; labelled with the set the pair ran on (RGB pairs run on AVX-512
+// wherever it is permitted, kernels.cpp, pair_set; so do Jacobi's, CG's and interleaving's, whose
+// labels then add "pairs avx512").
 // rgb/gapped/*: one RGB gather and one RGB sorted shot on a matrix with half its entries zero,
 // dense, sparse through a scratch row, and sparse through kernels::RunRow (the sparse layout's
 // path).
@@ -229,6 +230,15 @@ std::string suffix(Kernels k) {
 void BM_Step(benchmark::State& state, const Problem* p, const char* name,
              std::vector<std::string> params, Order order, Kernels k) {
   use(state, k);
+  // Jacobi, CG and interleaving gather dense rows two a pass (kernels::gather_pair), RGB pairs on
+  // AVX-512 even where the rest runs AVX2: the label says so.
+  const kernels::KernelSet pairs = kernels::gather_pair_kernels(p->system->channels());
+  const std::string solver_name(name);
+  if ((solver_name == "jacobi" || solver_name == "conjugate-gradient" ||
+       solver_name == "interleaved") &&
+      pairs != kernels::kernels_in_use())
+    state.SetLabel(std::string(kernels::kernel_set_name(kernels::kernels_in_use())) + ", pairs " +
+                   kernels::kernel_set_name(pairs));
   ParamBag bag = ParamBag::from_assignments(params, name);
   auto solver = make_solver(name, bag);
   solver->init(*p->system);
@@ -289,6 +299,7 @@ void BM_GatherPairKernel(benchmark::State& state, const Problem* p, Kernels k) {
   use(state, k);
   const System& sys = *p->system;
   const size_t n = sys.size();
+  state.SetLabel(kernels::kernel_set_name(kernels::gather_pair_kernels(sys.channels())));
   double out[2][3];
   size_t row = 0;
   const double start = cpu_seconds();

@@ -767,6 +767,10 @@ const char* kernel_set_name(KernelSet set) {
   return "?";
 }
 
+KernelSet gather_pair_kernels(int channels) {
+  return pair_set(channels).value_or(active());
+}
+
 bool vector_kernels() {
   return kernels_in_use() != KernelSet::kScalar;
 }

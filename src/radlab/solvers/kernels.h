@@ -134,6 +134,9 @@ const char* kernel_set_name(KernelSet set);
 bool use_vector_kernels(bool enable);
 // Whether a vector set (AVX2 or AVX-512) is in use.
 bool vector_kernels();
+// The set gather_pair runs on now for `channels` channels: the active set, except RGB pairs on
+// AVX-512 where it is permitted (for labels: which instructions a paired gather used).
+KernelSet gather_pair_kernels(int channels);
 // Throws UsageError when RADLAB_KERNELS holds anything but "scalar", "avx2", "avx512", "auto" or
 // nothing.
 void check_kernel_environment();
