@@ -11,6 +11,7 @@
 // reduce in one fixed order shared by every path, so no tolerance is justified.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <cstring>
 #include <memory>
 #include <string>
@@ -483,6 +484,31 @@ TEST(KernelsDispatch, SolversOnSparseMatrixEqualDense) {
       EXPECT_TRUE(same_bits(result[0].raw().data(), result[1].raw().data(), result[0].raw().size()))
           << scene_name << ": " << name;
     }
+  }
+}
+
+// Which set a paired gather runs on (kernels.h, gather_pair_kernels): grey pairs on the active
+// set; RGB pairs on AVX-512 wherever the CPU has it and it is permitted (the default included),
+// on the active set where it is not (an explicit AVX2 or scalar choice).
+TEST(KernelsDispatch, PairedGatherSetFollowsTheDocumentedRule) {
+  using kernels::KernelSet;
+  const bool avx512 = kernels::kernels_available(KernelSet::kAvx512);
+  ASSERT_TRUE(kernels::use_kernels(KernelSet::kScalar));
+  EXPECT_EQ(kernels::gather_pair_kernels(3), KernelSet::kScalar);
+  EXPECT_EQ(kernels::gather_pair_kernels(1), KernelSet::kScalar);
+  if (kernels::use_kernels(KernelSet::kAvx2)) {
+    EXPECT_EQ(kernels::gather_pair_kernels(3), KernelSet::kAvx2);
+    EXPECT_EQ(kernels::gather_pair_kernels(1), KernelSet::kAvx2);
+  }
+  kernels::use_vector_kernels(true);
+  const KernelSet active = kernels::kernels_in_use();
+  EXPECT_EQ(kernels::gather_pair_kernels(1), active);
+  const char* env = std::getenv("RADLAB_KERNELS");
+  const std::string choice = env ? env : "";
+  if (avx512 && choice != "avx2" && choice != "scalar") {
+    EXPECT_EQ(kernels::gather_pair_kernels(3), KernelSet::kAvx512);
+  } else {
+    EXPECT_EQ(kernels::gather_pair_kernels(3), active);
   }
 }
 
