@@ -432,6 +432,32 @@ TEST_P(VectorSet, SparseShotSelectionTakesLowestTiedIndex) {
   }
 }
 
+// A dense and a sparse matrix with the same reciprocal entries, A_i F_ij = A_j F_ji = g_ij with
+// g_ij = scale u min(A_i, A_j) / n (u uniform in [0, 1) from `seed`); with gaps, zero for a third
+// of the pairs in blocks (culled or occluded pairs), so that sparse rows are stored in runs.
+struct SameEntries {
+  FormFactorMatrix dense, sparse;
+};
+SameEntries reciprocal_matrices(const Mesh& mesh, uint64_t seed, double scale, bool gaps) {
+  const size_t n = mesh.size();
+  SameEntries m{FormFactorMatrix(n, Precision::kFloat),
+                FormFactorMatrix(n, Precision::kFloat, Layout::kSparse)};
+  Pcg32 rng(seed);
+  std::vector<std::vector<double>> rows(n, std::vector<double>(n, 0.0));
+  for (size_t i = 0; i < n; ++i)
+    for (size_t j = i + 1; j < n; ++j) {
+      if (gaps && (i / 7 + j / 5) % 3 == 0) continue;
+      const double g = scale * rng.next_double() * std::min(mesh.area[i], mesh.area[j]) / double(n);
+      rows[i][j] = g / mesh.area[i];
+      rows[j][i] = g / mesh.area[j];
+    }
+  for (size_t i = 0; i < n; ++i) {
+    m.dense.set_row(i, rows[i]);
+    m.sparse.set_row(i, rows[i]);
+  }
+  return m;
+}
+
 // Whole runs: the solvers that read rows through System::with_compact_row give the same
 // solution bits on a sparse matrix as on the dense one with the same entries.
 TEST(KernelsDispatch, SolversOnSparseMatrixEqualDense) {
@@ -440,22 +466,9 @@ TEST(KernelsDispatch, SolversOnSparseMatrixEqualDense) {
     validate_scene(scene);
     const Mesh mesh = build_mesh(scene, {3, 0.0});
     const size_t n = mesh.size();
-    // Reciprocal entries with gaps: A_i F_ij = A_j F_ji = g_ij, zero for a third of the pairs
-    // in blocks (culled or occluded pairs), rows summing to ~0.8.
-    FormFactorMatrix dense(n, Precision::kFloat), sparse(n, Precision::kFloat, Layout::kSparse);
-    Pcg32 rng(5);
-    std::vector<std::vector<double>> rows(n, std::vector<double>(n, 0.0));
-    for (size_t i = 0; i < n; ++i)
-      for (size_t j = i + 1; j < n; ++j) {
-        if ((i / 7 + j / 5) % 3 == 0) continue;
-        const double g = 2.4 * rng.next_double() * std::min(mesh.area[i], mesh.area[j]) / double(n);
-        rows[i][j] = g / mesh.area[i];
-        rows[j][i] = g / mesh.area[j];
-      }
-    for (size_t i = 0; i < n; ++i) {
-      dense.set_row(i, rows[i]);
-      sparse.set_row(i, rows[i]);
-    }
+    // Reciprocal entries with gaps, rows summing to ~0.8.
+    const SameEntries m = reciprocal_matrices(mesh, 5, 2.4, /*gaps=*/true);
+    const FormFactorMatrix &dense = m.dense, &sparse = m.sparse;
     ASSERT_TRUE(identical_entries(dense, sparse));
     size_t partial = 0;
     for (size_t i = 0; i < n; ++i) partial += sparse.whole_row(i) ? 0 : 1;
@@ -514,28 +527,16 @@ TEST(KernelsDispatch, PairedGatherSetFollowsTheDocumentedRule) {
 
 // Jacobi, conjugate gradients and interleaving's gathers read two dense rows a pass
 // (System::with_dense_rows); on a sparse matrix with the same entries they read one row at a
-// time. Every step's solution is the
-// same bits, and the same rows have been counted after every step (Jacobi charges a paired row
-// at the step that uses it).
+// time. Every step's solution is the same bits, and the same rows have been counted after every
+// step (Jacobi charges a paired row at the step that uses it).
 TEST(KernelsDispatch, PairedRowsGiveEveryStepsBits) {
   for (const std::string scene_name : {"cornell", "cube"}) {
     Scene scene = make_builtin_scene(scene_name);
     validate_scene(scene);
     const Mesh mesh = build_mesh(scene, {3, 0.0});
     const size_t n = mesh.size();
-    FormFactorMatrix dense(n, Precision::kFloat), sparse(n, Precision::kFloat, Layout::kSparse);
-    Pcg32 rng(23);
-    std::vector<std::vector<double>> rows(n, std::vector<double>(n, 0.0));
-    for (size_t i = 0; i < n; ++i)
-      for (size_t j = i + 1; j < n; ++j) {
-        const double g = 1.6 * rng.next_double() * std::min(mesh.area[i], mesh.area[j]) / double(n);
-        rows[i][j] = g / mesh.area[i];
-        rows[j][i] = g / mesh.area[j];
-      }
-    for (size_t i = 0; i < n; ++i) {
-      dense.set_row(i, rows[i]);
-      sparse.set_row(i, rows[i]);
-    }
+    const SameEntries m = reciprocal_matrices(mesh, 23, 1.6, /*gaps=*/false);
+    const FormFactorMatrix &dense = m.dense, &sparse = m.sparse;
     const System on_dense(scene, mesh, dense), on_sparse(scene, mesh, sparse);
     const std::vector<std::pair<std::string, std::vector<std::string>>> solvers = {
         {"jacobi", {}},
