@@ -503,8 +503,18 @@ TEST(ReliabilityOutputs, ASweepThatCannotWriteItsResultsFailsAndIsNotComplete) {
   const std::string toml = dir.write("e.toml", kTwoRuns);
   Result whole = radlab(dir, "-q run " + toml + " --out " + dir.file("whole"));
   ASSERT_EQ(whole.code, 0) << whole.output;
-  const uintmax_t size = fs::file_size(dir.file("whole/trace.csv"));
-  const std::string limit = "trap \"\" XFSZ; ulimit -f " + std::to_string(size / 512) + "; ";
+  // The limit must let every file but trace.csv through and stop trace.csv, whatever the time
+  // columns' lengths this run. trace.csv concatenates the two runs' partial traces (the same
+  // number of rows each), so each partial is about half of it; three quarters of the whole
+  // trace leaves a quarter of it (~11 kB) on either side for the time columns to vary in.
+  const uintmax_t trace_size = fs::file_size(dir.file("whole/trace.csv"));
+  for (const auto& entry : fs::recursive_directory_iterator(dir.file("whole"))) {
+    if (entry.is_regular_file() && entry.path().filename() != "trace.csv") {
+      ASSERT_LT(entry.file_size(), trace_size / 2) << entry.path();
+    }
+  }
+  const uintmax_t limit_blocks = trace_size * 3 / 4 / 512;  // ulimit -f counts 512-byte blocks
+  const std::string limit = "trap \"\" XFSZ; ulimit -f " + std::to_string(limit_blocks) + "; ";
   Result r = radlab(dir, "-q run " + toml + " --out " + dir.file("out"), limit);
   EXPECT_EQ(r.code, 3) << r.output;
   EXPECT_OUTPUT_HAS(r, "trace.csv");

@@ -18,6 +18,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <regex>
 #include <sstream>
 #include <thread>
 
@@ -279,8 +280,10 @@ TEST(Workflow, AKilledShardResumesWhatItFinished) {
   std::ifstream log(dir.file("out/slow/logs/shard_1.log"));
   std::stringstream text;
   text << log.rdbuf();
-  EXPECT_NE(text.str().find("resumed: 1 runs were already complete"), std::string::npos)
-      << text.str();
+  // Run 1 was complete at the kill; run 3 may have finished too if this process was slow to
+  // wake (a loaded machine), but not run 5 as well, or the shard would not have been killed.
+  const std::regex resumed_runs("resumed: ([12]) runs were already complete");
+  EXPECT_TRUE(std::regex_search(text.str(), resumed_runs)) << text.str();
   EXPECT_EQ(read_csv(dir.file("out/slow/merged/summary.csv")).rows.size(), 6u);
 }
 
