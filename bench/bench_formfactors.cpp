@@ -31,16 +31,16 @@
 
 #include "bench/bench_clock.h"
 #include "bench/bench_scenes.h"
-#include "radlab/core/random.h"
-#include "radlab/formfactor/embree_scene.h"
-#include "radlab/formfactor/hemicube.h"
-#include "radlab/formfactor/matrix.h"
-#include "radlab/formfactor/raycast.h"
-#include "radlab/formfactor/sampling.h"
-#include "radlab/formfactor/shaft.h"
-#include "radlab/formfactor/visibility.h"
-#include "radlab/scene/builtin_scenes.h"
-#include "radlab/scene/validate.h"
+#include "core/random.h"
+#include "formfactor/matrix/matrix.h"
+#include "formfactor/methods/hemicube.h"
+#include "formfactor/methods/raycast.h"
+#include "formfactor/visibility/embree_scene.h"
+#include "formfactor/visibility/sampling.h"
+#include "formfactor/visibility/shaft.h"
+#include "formfactor/visibility/visibility.h"
+#include "scene/builtin/builtin_scenes.h"
+#include "scene/validate.h"
 
 namespace radlab {
 namespace {

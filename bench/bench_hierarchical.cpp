@@ -13,9 +13,9 @@
 #include <map>
 #include <string>
 
-#include "radlab/formfactor/raycast.h"
-#include "radlab/scene/scene_loader.h"
-#include "radlab/solvers/registry.h"
+#include "formfactor/methods/raycast.h"
+#include "scene/scene_loader.h"
+#include "solvers/registry.h"
 
 namespace radlab {
 namespace {

@@ -1,4 +1,4 @@
-// Lambert's point-to-polygon formula (src/radlab/formfactor/point_polygon.h): the scalar path, one
+// Lambert's point-to-polygon formula (formfactor/integrate/point_polygon.h): the scalar path, one
 // point at a time (with the inline atan2 since 2026-11-27, libm's before), against the batched
 // evaluator, all of a rule's points against one polygon in one call, on the inputs the raycast
 // form factors give it.
@@ -23,13 +23,13 @@
 
 #include "bench/bench_clock.h"
 #include "bench/bench_scenes.h"
-#include "radlab/formfactor/point_polygon.h"
-#include "radlab/formfactor/polygon_integral.h"
-#include "radlab/formfactor/quadrature.h"
-#include "radlab/formfactor/raycast.h"
-#include "radlab/formfactor/visibility.h"
-#include "radlab/scene/builtin_scenes.h"
-#include "radlab/scene/validate.h"
+#include "formfactor/integrate/point_polygon.h"
+#include "formfactor/integrate/polygon_integral.h"
+#include "formfactor/integrate/quadrature.h"
+#include "formfactor/methods/raycast.h"
+#include "formfactor/visibility/visibility.h"
+#include "scene/builtin/builtin_scenes.h"
+#include "scene/validate.h"
 
 namespace radlab {
 namespace {

@@ -21,13 +21,13 @@
 #include <vector>
 
 #include "bench/bench_clock.h"
-#include "radlab/formfactor/exact.h"
-#include "radlab/formfactor/matrix.h"
-#include "radlab/formfactor/symmetric_build.h"
-#include "radlab/formfactor/visible_polygon.h"
-#include "radlab/scene/geometry.h"
-#include "radlab/scene/mesh.h"
-#include "radlab/scene/validate.h"
+#include "formfactor/matrix/matrix.h"
+#include "formfactor/matrix/symmetric_build.h"
+#include "formfactor/methods/exact.h"
+#include "formfactor/visibility/visible_polygon.h"
+#include "scene/geometry.h"
+#include "scene/mesh.h"
+#include "scene/validate.h"
 
 namespace radlab {
 namespace {

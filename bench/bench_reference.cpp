@@ -14,8 +14,8 @@
 #include <memory>
 #include <string>
 
-#include "radlab/experiments/problem.h"
-#include "radlab/solvers/reference.h"
+#include "experiments/problem/problem.h"
+#include "solvers/reference/reference.h"
 
 namespace radlab {
 namespace {

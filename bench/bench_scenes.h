@@ -5,10 +5,10 @@
 
 #include <memory>
 
-#include "radlab/formfactor/embree_scene.h"
-#include "radlab/scene/builtin_scenes.h"
-#include "radlab/scene/mesh.h"
-#include "radlab/scene/validate.h"
+#include "formfactor/visibility/embree_scene.h"
+#include "scene/builtin/builtin_scenes.h"
+#include "scene/mesh.h"
+#include "scene/validate.h"
 
 namespace radlab::bench {
 

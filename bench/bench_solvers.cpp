@@ -36,14 +36,14 @@
 #include <ctime>
 #include <memory>
 
-#include "radlab/core/random.h"
-#include "radlab/formfactor/matrix.h"
-#include "radlab/scene/builtin_scenes.h"
-#include "radlab/scene/validate.h"
-#include "radlab/solvers/kernels.h"
-#include "radlab/solvers/registry.h"
-#include "radlab/solvers/shooting_core.h"
-#include "radlab/solvers/system.h"
+#include "core/random.h"
+#include "formfactor/matrix/matrix.h"
+#include "scene/builtin/builtin_scenes.h"
+#include "scene/validate.h"
+#include "solvers/flat/shooting_core.h"
+#include "solvers/kernels/kernels.h"
+#include "solvers/registry.h"
+#include "solvers/system.h"
 
 namespace radlab {
 namespace {

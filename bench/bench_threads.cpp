@@ -3,11 +3,11 @@
 // machine is shared, so quote the ratios from one run and expect them below 2 when other
 // processes hold a core.
 //
-//   - DenseLu: the reference's LU (src/radlab/solvers/dense_lu.h) against Eigen's PartialPivLU
+//   - DenseLu: the reference's LU (solvers/reference/dense_lu.h) against Eigen's PartialPivLU
 //   (what the
 //     reference used before) at n = 3,000 on I - rho F with F random (rows summing to 0.9).
 //   - OnTheFlyRow: one raycast row of the Cornell box at --subdiv 20 (~8,000 elements), the row
-//     System::with_row computes on the fly (src/radlab/formfactor/parallel_row.h).
+//     System::with_row computes on the fly (formfactor/matrix/parallel_row.h).
 //   - Shot: one RGB sorted shot's kernel (kernels::shoot with fused selection) on scattered
 //     float rows of n receivers (256 MB of rows), split over threads (the split is off by
 //     default; turned on here from 2 pieces of kernels::kShotChunk). (bench_solvers.cpp has the
@@ -27,12 +27,12 @@
 #include <memory>
 #include <vector>
 
-#include "radlab/core/random.h"
-#include "radlab/formfactor/parallel_row.h"
-#include "radlab/scene/builtin_scenes.h"
-#include "radlab/scene/validate.h"
-#include "radlab/solvers/dense_lu.h"
-#include "radlab/solvers/kernels.h"
+#include "core/random.h"
+#include "formfactor/matrix/parallel_row.h"
+#include "scene/builtin/builtin_scenes.h"
+#include "scene/validate.h"
+#include "solvers/kernels/kernels.h"
+#include "solvers/reference/dense_lu.h"
 
 namespace radlab {
 namespace {

@@ -8,8 +8,8 @@
 #include <limits>
 #include <memory>
 
-#include "radlab/core/error.h"
-#include "radlab/core/text.h"
+#include "core/error.h"
+#include "core/text.h"
 
 namespace radlab::cli {
 

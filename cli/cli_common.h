@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "radlab/experiments/problem.h"
+#include "experiments/problem/problem.h"
 
 namespace radlab::cli {
 
@@ -14,10 +14,10 @@ struct SceneOptions {
   std::string scene;
   int subdiv = 1;
   double element_size = 0.0;
-  std::string patches = "elements";  // --patches: two levels (src/radlab/solvers/patches.h)
+  std::string patches = "elements";  // --patches: two levels (solvers/two_level/patches.h)
   double patch_size = 0.0;           // --patch-size, with --patches size
-  std::string patch_rows = "auto";  // --patch-rows: centre | mean (src/radlab/solvers/patch_rows.h)
-  bool keep_overlaps = false;       // --keep-overlaps: coincident polygons as they are (overlap.h)
+  std::string patch_rows = "auto";   // --patch-rows: centre | mean (solvers/two_level/patch_rows.h)
+  bool keep_overlaps = false;        // --keep-overlaps: coincident polygons as they are (overlap.h)
 };
 
 struct FormFactorOptions {

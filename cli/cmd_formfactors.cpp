@@ -10,12 +10,12 @@
 #include <numeric>
 
 #include "cli/cli_common.h"
-#include "radlab/core/csv.h"
-#include "radlab/core/error.h"
-#include "radlab/core/log.h"
-#include "radlab/core/output_file.h"
-#include "radlab/core/progress.h"
-#include "radlab/core/random.h"
+#include "core/csv.h"
+#include "core/error.h"
+#include "core/log.h"
+#include "core/output_file.h"
+#include "core/progress.h"
+#include "core/random.h"
 
 namespace radlab::cli {
 namespace {
@@ -142,7 +142,7 @@ void add_formfactors_command(CLI::App& app) {
     } else {
       std::printf("diagnostics  %s\n", problem->diagnostics.summary().c_str());
     }
-    // The row-sum check (src/radlab/formfactor/diagnostics.h): rows above 1 + the method's stated
+    // The row-sum check (formfactor/matrix/diagnostics.h): rows above 1 + the method's stated
     // error, with the worst rows' largest entries, their polygons and what makes each too large.
     std::string basis;
     stated_row_sum_error(*problem->method, &basis);

@@ -39,13 +39,13 @@
 #include <optional>
 
 #include "cli/cli_common.h"
-#include "radlab/core/error.h"
-#include "radlab/core/json.h"
-#include "radlab/core/log.h"
-#include "radlab/experiments/experiment_spec.h"
-#include "radlab/experiments/sweep.h"
-#include "radlab/formfactor/matrix_cache.h"
-#include "radlab/scene/scene_loader.h"
+#include "core/error.h"
+#include "core/json.h"
+#include "core/log.h"
+#include "experiments/sweep/experiment_spec.h"
+#include "experiments/sweep/sweep.h"
+#include "formfactor/matrix/matrix_cache.h"
+#include "scene/scene_loader.h"
 
 namespace radlab::cli {
 namespace {

@@ -2,9 +2,9 @@
 #include <cstdio>
 
 #include "cli/cli_common.h"
-#include "radlab/core/log.h"
-#include "radlab/core/output_file.h"
-#include "radlab/experiments/outputs.h"
+#include "core/log.h"
+#include "core/output_file.h"
+#include "experiments/run/outputs.h"
 
 namespace radlab::cli {
 

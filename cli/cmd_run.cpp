@@ -3,11 +3,11 @@
 #include <filesystem>
 
 #include "cli/cli_common.h"
-#include "radlab/core/error.h"
-#include "radlab/core/log.h"
-#include "radlab/experiments/merge.h"
-#include "radlab/experiments/outputs.h"
-#include "radlab/experiments/sweep.h"
+#include "core/error.h"
+#include "core/log.h"
+#include "experiments/run/outputs.h"
+#include "experiments/sweep/merge.h"
+#include "experiments/sweep/sweep.h"
 
 namespace radlab::cli {
 

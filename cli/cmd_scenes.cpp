@@ -4,8 +4,8 @@
 #include <glm/common.hpp>
 
 #include "cli/cli_common.h"
-#include "radlab/scene/builtin_scenes.h"
-#include "radlab/scene/scene_loader.h"
+#include "scene/builtin/builtin_scenes.h"
+#include "scene/scene_loader.h"
 
 namespace radlab::cli {
 

@@ -2,14 +2,14 @@
 #include <cstdio>
 
 #include "cli/cli_common.h"
-#include "radlab/formfactor/form_factor_method.h"
-#include "radlab/solvers/registry.h"
+#include "formfactor/form_factor_method.h"
+#include "solvers/registry.h"
 
 namespace radlab::cli {
 
 namespace {
 
-// The README's solver table, from the registry (tests/cli_test.cpp checks the README holds it).
+// The README's solver table, from the registry (tests/cli/cli_test.cpp checks the README holds it).
 void print_markdown_table() {
   std::printf("| name | method | paper | one step | parameters |\n|---|---|---|---|---|\n");
   for (const SolverInfo& s : solver_registry()) {

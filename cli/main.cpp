@@ -7,13 +7,13 @@
 #include <filesystem>
 
 #include "cli/cli_common.h"
-#include "radlab/core/error.h"
-#include "radlab/core/limits.h"
-#include "radlab/core/log.h"
-#include "radlab/experiments/version_info.h"
-#include "radlab/scene/scene_loader.h"
-#include "radlab/solvers/kernels.h"
-#include "radlab/solvers/plugin_loader.h"
+#include "core/error.h"
+#include "core/limits.h"
+#include "core/log.h"
+#include "experiments/run/version_info.h"
+#include "scene/scene_loader.h"
+#include "solvers/kernels/kernels.h"
+#include "solvers/plugin_loader.h"
 
 int main(int argc, char** argv) {
   CLI::App app{

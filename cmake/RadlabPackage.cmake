@@ -7,14 +7,16 @@
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
-# The headers are installed straight from the tree: src/radlab/<folder>/*.h is the layout of
-# <prefix>/include/radlab/<folder>/*.h, and every file includes the others by that name.
+# The headers are installed from each library's header file set (cmake/RadlabLibrary.cmake):
+# <folder>/<role>/x.h in the tree is <prefix>/include/radlab/<folder>/<role>/x.h, and the
+# installed targets put <prefix>/include/radlab on the include path, so every include keeps the
+# spelling it has in the tree ("solvers/solver.h").
 # radlab::plugin: the headers and their header-only dependencies, no library. A plugin resolves
 # radlab's symbols against the executable that loads it (ENABLE_EXPORTS on radlab).
 add_library(radlab_plugin INTERFACE)
-target_include_directories(radlab_plugin INTERFACE $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/src>
+target_include_directories(radlab_plugin INTERFACE $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}>
                                                    $<BUILD_INTERFACE:${PROJECT_BINARY_DIR}/generated>
-                                                   $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
+                                                   $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}/radlab>)
 target_link_libraries(radlab_plugin INTERFACE glm::glm nlohmann_json::nlohmann_json)
 target_compile_features(radlab_plugin INTERFACE cxx_std_20)
 
@@ -28,11 +30,8 @@ install(TARGETS ${radlab_exported} radlab EXPORT radlabTargets
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
         LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
         RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR}
-        INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
-install(DIRECTORY ${PROJECT_SOURCE_DIR}/src/radlab DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
-        FILES_MATCHING PATTERN "*.h")
-install(FILES ${PROJECT_BINARY_DIR}/generated/radlab/core/version.h
-        DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/radlab/core)
+        FILE_SET HEADERS DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/radlab
+        FILE_SET generated DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/radlab)
 install(EXPORT radlabTargets NAMESPACE radlab:: FILE radlabTargets.cmake
         DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/radlab)
 configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/radlabConfig.cmake.in

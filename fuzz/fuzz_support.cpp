@@ -5,7 +5,7 @@
 #include <cstdlib>
 #include <fstream>
 
-#include "radlab/core/limits.h"
+#include "core/limits.h"
 
 namespace radlab::fuzz {
 

@@ -20,7 +20,7 @@
 
 namespace radlab::fuzz {
 
-// Lowers the resource limits (src/radlab/core/limits.h) for fuzzing: inputs then reach the refusals
+// Lowers the resource limits (core/limits.h) for fuzzing: inputs then reach the refusals
 // with little work, and a timeout means work that no estimate bounds (a real hang), not a large but
 // allowed scene. Called once from each harness's LLVMFuzzerInitialize.
 void set_fuzz_limits();

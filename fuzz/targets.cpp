@@ -2,12 +2,12 @@
 
 #include <filesystem>
 
+#include "core/error.h"
+#include "experiments/sweep/experiment_spec.h"
+#include "experiments/sweep/merge.h"
 #include "fuzz/fuzz_support.h"
-#include "radlab/core/error.h"
-#include "radlab/experiments/experiment_spec.h"
-#include "radlab/experiments/merge.h"
-#include "radlab/scene/mesh.h"
-#include "radlab/scene/scene_loader.h"
+#include "scene/mesh.h"
+#include "scene/scene_loader.h"
 
 namespace radlab::fuzz {
 namespace {

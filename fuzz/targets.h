@@ -1,6 +1,7 @@
 // The fuzz targets as plain functions: the libFuzzer harnesses (fuzz/*_fuzz.cpp, RADLAB_FUZZ
 // builds only) call them on mutated input, and the default test suite replays every committed
-// corpus file through them (tests/fuzz_corpus_test.cpp), so each finding stays a regression test.
+// corpus file through them (tests/fuzz/fuzz_corpus_test.cpp), so each finding stays a regression
+// test.
 //
 // Each returns normally when the input is read or refused with a radlab::Error (the documented
 // way to refuse input: exit 2/3/4 on the command line); anything else escapes and is a finding.

@@ -27,7 +27,7 @@ PATTERN = re.compile(r"^(?P<run>.+)_step(?P<step>\d{6})\.png$")
 
 
 def file_stem(run_id):
-    """The file name radlab gives a run's files (src/radlab/experiments/sweep.cpp: file_stem)."""
+    """The file name radlab gives a run's files (experiments/sweep/sweep.cpp: file_stem)."""
     return re.sub(r"[/: ,=]", "_", run_id)
 
 

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Derives the coefficients of radlab's inline atan (src/radlab/formfactor/fast_atan.h).
+"""Derives the coefficients of radlab's inline atan (formfactor/integrate/fast_atan.h).
 
     atan(u) ~ u + u^3 * P(u^2),   |u| <= tan(pi/8) (plus a small margin),
 

@@ -6,7 +6,7 @@
 # growing corpus in build-fuzz/corpus/HARNESS, and writes crashes, timeouts (hangs) and
 # allocations above the limit to build-fuzz/findings/HARNESS/. Crashes do not stop a run
 # (libFuzzer's fork mode). A finding, once fixed, is copied into fuzz/corpus/HARNESS/ and so
-# replayed by the default test suite (tests/fuzz_corpus_test.cpp). docs/reliability.md.
+# replayed by the default test suite (tests/fuzz/fuzz_corpus_test.cpp). docs/reliability.md.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 seconds="${1:-60}"

@@ -33,7 +33,7 @@ from sweep_runs import listed_runs  # noqa: E402
 
 
 def file_stem(run_id):
-    """The file name radlab gives a run's files (src/radlab/experiments/sweep.cpp: file_stem)."""
+    """The file name radlab gives a run's files (experiments/sweep/sweep.cpp: file_stem)."""
     return re.sub(r"[/: ,=]", "_", run_id)
 
 

@@ -3,11 +3,11 @@
 # missing, starts a private single-node cluster on localhost (munged, slurmctld and slurmd with
 # their own key, config, socket, ports, state and logs in a temporary folder; nothing in /etc is
 # used or changed), runs the workflow test that compares a 3-shard workflow with the unsharded
-# `radlab run` (tests/workflow_test.cpp, Workflow.ShardedEqualsUnsharded...) with
+# `radlab run` (tests/workflow/workflow_test.cpp, Workflow.ShardedEqualsUnsharded...) with
 # `--profile workflow/profiles/slurm`, prints a summary of what Slurm ran, and stops the daemons
 # it started. Needs root. Not part of the default test run.
 #
-#   scripts/test-slurm.sh [BUILD_DIR]      (default: build; radlab and workflow_test built there)
+#   scripts/test-slurm.sh [BUILD_DIR]      (default: build; radlab and workflow_tests built there)
 #
 # Exit 0 when the test passed through Slurm, 1 when it failed, 2 when it could not start.
 set -euo pipefail
@@ -18,8 +18,8 @@ if [ "$(id -u)" -ne 0 ]; then
   echo "test-slurm: needs root (installs packages, starts munged/slurmctld/slurmd)" >&2
   exit 2
 fi
-if [ ! -x "$build/tests/workflow_test" ] || [ ! -x "$build/cli/radlab" ]; then
-  echo "test-slurm: build radlab and workflow_test in $build first" >&2
+if [ ! -x "$build/tests/workflow_tests" ] || [ ! -x "$build/cli/radlab" ]; then
+  echo "test-slurm: build radlab and workflow_tests in $build first" >&2
   exit 2
 fi
 
@@ -110,7 +110,7 @@ export USER="${USER:-root}"  # Snakemake's Slurm executor reads it
 status=0
 start=$(date +%s)
 (cd "$dir" && RADLAB_WORKFLOW_ARGS="--profile $root/workflow/profiles/slurm" \
-  "$build/tests/workflow_test" --gtest_filter='Workflow.ShardedEqualsUnsharded*') \
+  "$build/tests/workflow_tests" --gtest_filter='Workflow.ShardedEqualsUnsharded*') \
   >"$dir/test.log" 2>&1 || status=1
 echo "test-slurm: the test took $(($(date +%s) - start)) s"
 grep -E '^\[ +(OK|FAILED|PASSED|SKIPPED) +\]' "$dir/test.log" || true

@@ -54,7 +54,7 @@ def unit_box():
 
 
 def grid(q, k):
-    """radlab's quad_grid (src/radlab/scene/mesh.cpp): bilinear K x K grid, rows b, columns a."""
+    """radlab's quad_grid (scene/mesh.cpp): bilinear K x K grid, rows b, columns a."""
     def at(a, b):
         s, t = a / k, b / k
         return tuple((1 - s) * (1 - t) * q[0][c] + s * (1 - t) * q[1][c] + s * t * q[2][c] +

@@ -2,7 +2,7 @@
 # temporary prefix inside the build folder, build examples/southwell_plugin against the installed
 # package with its own CMakeLists.txt, and run the plugin's solver through the installed radlab
 # (`solvers`, `solve`) and through the solver conformance tests.
-#   -DBUILD_DIR -DSOURCE_DIR -DCXX_COMPILER -DCONFORMANCE_TEST=<solver_conformance_test binary>
+#   -DBUILD_DIR -DSOURCE_DIR -DCXX_COMPILER -DCONFORMANCE_TEST=<solvers_tests binary>
 set(work ${BUILD_DIR}/plugin_package_test)
 set(prefix ${work}/prefix)
 file(REMOVE_RECURSE ${work})
@@ -22,10 +22,10 @@ foreach(file include/radlab/solvers/plugin.h include/radlab/solvers/solver.h
     message(FATAL_ERROR "the install has no ${file}")
   endif()
 endforeach()
-# Installed headers include each other under the radlab/ prefix only.
+# Installed headers include each other by their path under include/radlab/, as in the tree.
 file(READ ${prefix}/include/radlab/solvers/solver.h text)
-if(NOT text MATCHES "#include \"radlab/core/radiosity.h\"")
-  message(FATAL_ERROR "installed solver.h does not include radlab/core/radiosity.h")
+if(NOT text MATCHES "#include \"core/radiosity.h\"")
+  message(FATAL_ERROR "installed solver.h does not include core/radiosity.h")
 endif()
 
 run(${CMAKE_COMMAND} -S ${SOURCE_DIR}/examples/southwell_plugin -B ${work}/build

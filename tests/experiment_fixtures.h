@@ -1,5 +1,5 @@
-// Experiment files and CSV helpers shared by the sweep tests (experiments_test,
-// reliability_data_test, workflow_test): one definition, so a change of the format changes them
+// Experiment files and CSV helpers shared by the sweep tests (tests/experiments/sweep/,
+// tests/workflow/): one definition, so a change of the format changes them
 // together.
 #pragma once
 
@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "radlab/core/csv_reader.h"
+#include "core/csv_reader.h"
 
 namespace radlab::testing {
 

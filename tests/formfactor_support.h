@@ -1,12 +1,12 @@
-// Fixtures shared by the form-factor tests (formfactor_test, hemicube_test, ...): Howell's
+// Fixtures shared by the form-factor tests (tests/formfactor/): Howell's
 // catalogue of unit-square configuration factors and the pair helpers that measure against it.
 #pragma once
 
 #include <vector>
 
-#include "radlab/formfactor/raycast.h"
-#include "radlab/scene/mesh.h"
-#include "radlab/scene/scene.h"
+#include "formfactor/methods/raycast.h"
+#include "scene/mesh.h"
+#include "scene/scene.h"
 #include "tests/test_support.h"
 
 namespace radlab::testing {

@@ -1,4 +1,4 @@
-// The fixture the hierarchical tests share (hierarchical_test, hierarchical_rows_test): a
+// The fixture the hierarchical tests share (tests/solvers/hierarchical/): a
 // built-in scene, its mesh, the dense raycast matrix in double (symmetrised) and its certified
 // reference, against which the hierarchical solution is measured.
 #pragma once
@@ -6,13 +6,13 @@
 #include <memory>
 #include <string>
 
-#include "radlab/formfactor/matrix.h"
-#include "radlab/formfactor/raycast.h"
-#include "radlab/scene/builtin_scenes.h"
-#include "radlab/scene/mesh.h"
-#include "radlab/scene/validate.h"
-#include "radlab/solvers/reference.h"
-#include "radlab/solvers/system.h"
+#include "formfactor/matrix/matrix.h"
+#include "formfactor/methods/raycast.h"
+#include "scene/builtin/builtin_scenes.h"
+#include "scene/mesh.h"
+#include "scene/validate.h"
+#include "solvers/reference/reference.h"
+#include "solvers/system.h"
 
 namespace radlab::testing {
 

@@ -1,5 +1,5 @@
-// Fixtures shared by the solver tests (solver_conformance_test, shooting_test,
-// interleaved_test, solver_test, orderings_test): a scene with its mesh, raycast matrix, System
+// Fixtures shared by the solver tests (tests/solvers/: the conformance, shooting, interleaving,
+// gathering and orderings tests): a scene with its mesh, raycast matrix, System
 // and certified reference, and the residuals and error norms the tests assert on.
 #pragma once
 
@@ -13,11 +13,11 @@
 #include <string>
 #include <vector>
 
-#include "radlab/formfactor/raycast.h"
-#include "radlab/scene/builtin_scenes.h"
-#include "radlab/scene/validate.h"
-#include "radlab/solvers/reference.h"
-#include "radlab/solvers/registry.h"
+#include "formfactor/methods/raycast.h"
+#include "scene/builtin/builtin_scenes.h"
+#include "scene/validate.h"
+#include "solvers/reference/reference.h"
+#include "solvers/registry.h"
 
 namespace radlab::testing {
 struct Setup {

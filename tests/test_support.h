@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "radlab/scene/mesh.h"
-#include "radlab/scene/scene.h"
+#include "scene/mesh.h"
+#include "scene/scene.h"
 
 namespace radlab::testing {
 

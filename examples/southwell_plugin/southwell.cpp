@@ -17,9 +17,9 @@
 #include <cmath>
 #include <memory>
 
-#include "radlab/core/error.h"
-#include "radlab/core/text.h"
-#include "radlab/solvers/plugin.h"
+#include "core/error.h"
+#include "core/text.h"
+#include "solvers/plugin.h"
 
 namespace {
 

@@ -1,6 +1,6 @@
 // A plugin that claims another plugin ABI: radlab must refuse it before calling it
-// (tests/plugin_test.cpp).
-#include "radlab/solvers/plugin.h"
+// (tests/solvers/plugin_loader_test.cpp).
+#include "solvers/plugin.h"
 
 extern "C" __attribute__((visibility("default"))) const radlab::PluginAbi* radlab_plugin_abi() {
   static radlab::PluginAbi abi = radlab::this_build_plugin_abi();

@@ -1,8 +1,8 @@
 // A plugin that registers a solver under a built-in's name: radlab must refuse it
-// (tests/plugin_test.cpp).
+// (tests/solvers/plugin_loader_test.cpp).
 #include <memory>
 
-#include "radlab/solvers/plugin.h"
+#include "solvers/plugin.h"
 
 namespace {
 

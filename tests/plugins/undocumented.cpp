@@ -1,8 +1,9 @@
 // A plugin whose solver reads an option it does not list among its parameters: radlab must
-// refuse it (the registry reads parameters from the options struct; tests/plugin_test.cpp).
+// refuse it (the registry reads parameters from the options struct;
+// tests/solvers/plugin_loader_test.cpp).
 #include <memory>
 
-#include "radlab/solvers/plugin.h"
+#include "solvers/plugin.h"
 
 namespace {
 

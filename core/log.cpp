@@ -1,0 +1,32 @@
+#include "core/log.h"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <cstdio>
+
+namespace radlab::log {
+namespace {
+std::atomic<bool> g_quiet{false};
+}
+
+void set_quiet(bool quiet) {
+  g_quiet = quiet;
+}
+bool quiet() {
+  return g_quiet;
+}
+
+void info(const std::string& message) {
+  if (!g_quiet) std::fprintf(stderr, "%s\n", message.c_str());
+}
+
+void warning(const std::string& message) {
+  std::fprintf(stderr, "warning: %s\n", message.c_str());
+}
+
+bool stderr_is_terminal() {
+  return isatty(STDERR_FILENO) != 0;
+}
+
+}  // namespace radlab::log

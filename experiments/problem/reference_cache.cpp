@@ -1,0 +1,204 @@
+#include "experiments/problem/reference_cache.h"
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/log.h"
+#include "core/output_file.h"
+
+namespace radlab {
+namespace {
+
+constexpr char kMagic[8] = {'R', 'A', 'D', 'L', 'A', 'B', 'R', 'F'};
+constexpr uint64_t kChecksumSeed = 0xbadc0ffee;
+
+// Fixed layout, naturally aligned; followed by the key text, the method name, the per-channel
+// inverse-norm bounds, B (channel-major) and a checksum of everything before it.
+struct Header {
+  char magic[8];
+  uint32_t version;
+  uint32_t channels;
+  uint64_t n;
+  uint32_t key_text_bytes;
+  uint32_t method_bytes;
+  int32_t refinements;
+  int32_t reserved;
+  double seconds, q, spectral_radius_upper;
+};
+static_assert(sizeof(Header) == 64, "the reference cache header layout must not change silently");
+
+template <class T>
+void append(std::string& out, const T* data, size_t count) {
+  out.append(reinterpret_cast<const char*>(data), count * sizeof(T));
+}
+
+}  // namespace
+
+std::string ReferenceCacheKey::file_name() const {
+  char name[48];
+  std::snprintf(name, sizeof name, "%016llx%016llx.ref", static_cast<unsigned long long>(hash[0]),
+                static_cast<unsigned long long>(hash[1]));
+  return name;
+}
+
+ReferenceCacheKey reference_cache_key(const MatrixCacheKey& matrix_key, bool symmetrised,
+                                      const System& system, const ReferenceOptions& options) {
+  // The materials as exact bytes: rho and E per channel and element.
+  uint64_t materials = 0x6d617473;
+  for (int c = 0; c < system.channels(); ++c) {
+    const auto rho = system.reflectance().channel(c);
+    const auto E = system.emission().channel(c);
+    materials = hash_bytes(rho.data(), rho.size_bytes(), materials);
+    materials = hash_bytes(E.data(), E.size_bytes(), materials);
+  }
+  char text[300];
+  std::snprintf(text, sizeof text,
+                ";symmetrised=%d;channels=%d;materials=%016llx;target=%.17g;acceptable=%.17g;"
+                "refinements=%d;dense_limit=%zu;gmres_tolerance=%.17g",
+                symmetrised ? 1 : 0, system.channels(), static_cast<unsigned long long>(materials),
+                options.target, options.acceptable, options.max_refinements, options.dense_limit,
+                options.gmres_tolerance);
+  ReferenceCacheKey key;
+  key.text =
+      "reference=" + std::to_string(ReferenceCache::kFormatVersion) + ";" + matrix_key.text + text;
+  key.hash[0] = hash_bytes(key.text.data(), key.text.size(), 0x5eed0011);
+  key.hash[1] = hash_bytes(key.text.data(), key.text.size(), 0x5eed0012);
+  return key;
+}
+
+std::optional<Reference> ReferenceCache::load(const ReferenceCacheKey& key, const System& system,
+                                              const FormFactorMatrix& matrix,
+                                              const ReferenceOptions& options) const {
+  return load(key, system,
+              [&](Reference& ref) { recertify_reference(system, matrix, ref, options); });
+}
+
+std::optional<Reference> ReferenceCache::load(const ReferenceCacheKey& key, const System& system,
+                                              const FormFactorMethod& method,
+                                              const ReferenceOptions& options,
+                                              StreamedCheck& check) const {
+  return load(key, system, [&](Reference& ref) {
+    check = streamed_check(system, method, ref.B);
+    recertify_reference(system, check.residual, ref, options);
+  });
+}
+
+std::optional<Reference> ReferenceCache::load(
+    const ReferenceCacheKey& key, const System& system,
+    const std::function<void(Reference&)>& recertify) const {
+  const std::filesystem::path file = path(key);
+  std::error_code ec;
+  if (!std::filesystem::exists(file, ec)) return std::nullopt;
+  auto reject = [&](const std::string& why) -> std::optional<Reference> {
+    log::warning("reference cache: " + file.string() + ": " + why +
+                 "; the file is not trusted, deleted, and the reference recomputed");
+    std::error_code ignored;
+    std::filesystem::remove(file, ignored);
+    return std::nullopt;
+  };
+  std::ifstream in(file, std::ios::binary);
+  if (!in) return std::nullopt;  // vanished or unreadable: a miss
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  const std::string bytes = buffer.str();
+
+  Header h{};
+  if (bytes.size() < sizeof h + sizeof(uint64_t)) return reject("truncated");
+  std::memcpy(&h, bytes.data(), sizeof h);
+  if (std::memcmp(h.magic, kMagic, sizeof kMagic) != 0) return reject("not a radlab reference");
+  if (h.version != kFormatVersion) return reject("stale format version");
+  const size_t body = bytes.size() - sizeof(uint64_t);
+  uint64_t checksum = 0;
+  std::memcpy(&checksum, bytes.data() + body, sizeof checksum);
+  if (hash_bytes(bytes.data(), body, kChecksumSeed) != checksum)
+    return reject("checksum mismatch (corrupt)");
+  if ((h.channels != 1 && h.channels != 3) || h.n != system.size() ||
+      int(h.channels) != system.channels())
+    return reject("stored for another system");
+  const size_t doubles = size_t(h.channels) * (1 + h.n);
+  if (body != sizeof h + h.key_text_bytes + h.method_bytes + doubles * sizeof(double))
+    return reject("corrupt sizes");
+  const char* p = bytes.data() + sizeof h;
+  if (std::string(p, h.key_text_bytes) != key.text) return reject("stale: stored for another key");
+  p += h.key_text_bytes;
+
+  Reference ref;
+  ref.method = std::string(p, h.method_bytes) + ", cached";
+  p += h.method_bytes;
+  ref.channel_inverse_norm.resize(h.channels);
+  std::memcpy(ref.channel_inverse_norm.data(), p, h.channels * sizeof(double));
+  p += h.channels * sizeof(double);
+  ref.B = Radiosity(int(h.channels), size_t(h.n));
+  for (int c = 0; c < int(h.channels); ++c) {
+    std::memcpy(ref.B.channel(c).data(), p, h.n * sizeof(double));
+    p += h.n * sizeof(double);
+  }
+  ref.refinements = h.refinements;
+  ref.seconds = h.seconds;
+  ref.q = h.q;
+  ref.spectral_radius_upper = h.spectral_radius_upper;
+  for (double v : ref.channel_inverse_norm)
+    ref.inverse_norm_bound = std::max(ref.inverse_norm_bound, v);
+  try {
+    recertify(ref);
+  } catch (const NumericalError& e) {
+    return reject(std::string("does not certify against this matrix (") + e.what() + ")");
+  }
+  return ref;
+}
+
+bool ReferenceCache::store(const ReferenceCacheKey& key, const Reference& ref) const {
+  std::error_code ec;
+  std::filesystem::create_directories(folder_, ec);
+  if (ec) {
+    log::warning("reference cache: cannot create " + folder_.string() + " (" + ec.message() +
+                 "); the reference is not cached");
+    return false;
+  }
+  Header h{};
+  std::memcpy(h.magic, kMagic, sizeof kMagic);
+  h.version = kFormatVersion;
+  h.channels = uint32_t(ref.B.channels());
+  h.n = ref.B.size();
+  h.key_text_bytes = uint32_t(key.text.size());
+  h.method_bytes = uint32_t(ref.method.size());
+  h.refinements = ref.refinements;
+  h.seconds = ref.seconds;
+  h.q = ref.q;
+  h.spectral_radius_upper = ref.spectral_radius_upper;
+  std::string bytes;
+  append(bytes, &h, 1);
+  bytes += key.text;
+  bytes += ref.method;
+  append(bytes, ref.channel_inverse_norm.data(), ref.channel_inverse_norm.size());
+  for (int c = 0; c < ref.B.channels(); ++c) append(bytes, ref.B.channel(c).data(), ref.B.size());
+  const uint64_t checksum = hash_bytes(bytes.data(), bytes.size(), kChecksumSeed);
+  append(bytes, &checksum, 1);
+
+  remove_stale_temporaries(folder_);
+  const std::filesystem::path final_path = path(key);
+  try {
+    OutputFile out(final_path.string(), /*binary=*/true, /*sync=*/true);
+    out.write(bytes);
+    out.commit();
+  } catch (const std::exception& e) {
+    log::warning(std::string("reference cache: ") + e.what() + "; the reference is not cached");
+    return false;
+  }
+  return true;
+}
+
+std::unique_ptr<FileLock> ReferenceCache::lock(const ReferenceCacheKey& key) const {
+  std::error_code ec;
+  std::filesystem::create_directories(folder_, ec);
+  std::filesystem::path file = path(key);
+  file.replace_extension(".lock");
+  return FileLock::acquire(file.string(), "the same reference (" + file.string() + ")");
+}
+
+}  // namespace radlab

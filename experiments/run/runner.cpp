@@ -1,0 +1,361 @@
+#include "experiments/run/runner.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "core/error.h"
+#include "core/log.h"
+#include "core/progress.h"
+#include "core/text.h"
+#include "experiments/problem/two_level_problem.h"
+
+namespace radlab {
+
+void Budget::validate() const {
+  if ((steps && *steps < 1) || (rows && *rows < 1) ||
+      (seconds && !(*seconds > 0 && std::isfinite(*seconds))) || (tol && !(*tol > 0 && *tol < 1)))
+    throw UsageError(
+        "run budget: steps and rows must be >= 1, seconds finite and > 0, tol in (0,1)");
+}
+
+const char* Budget::exhausted(long long step, unsigned long long rows_used,
+                              double seconds_used) const {
+  if (steps && step >= *steps) return "step budget";
+  if (rows && static_cast<long long>(rows_used) >= *rows) return "row budget";
+  if (seconds && seconds_used >= *seconds) return "time budget";
+  return nullptr;
+}
+
+std::string Budget::describe() const {
+  std::vector<std::string> parts;
+  if (steps) parts.push_back(std::to_string(*steps) + " steps");
+  if (rows) parts.push_back(std::to_string(*rows) + " rows");
+  if (seconds) parts.push_back(text::format_double(*seconds) + " s");
+  // The scale is part of the claim: 1e-9 of max B* and 1e-9 of the reflected light differ by
+  // orders of magnitude on a scene with a small bright lamp.
+  if (tol)
+    parts.push_back("bound <= " + text::format_double(*tol) +
+                    (tol_of_reflected ? " of max(B* - E)" : " of max B*"));
+  return parts.empty() ? "none" : text::join(parts, ", ");
+}
+
+long long CheckpointSchedule::next_after(long long step) const {
+  long long next = step + 1;
+  if (next > every_step_until) {
+    // Geometric: the smallest step of the form ceil(every_step_until * growth^k) beyond `step`.
+    double s = double(std::max<long long>(every_step_until, 1));
+    while (static_cast<long long>(std::ceil(s)) <= step) s *= growth;
+    next = static_cast<long long>(std::ceil(s));
+  }
+  for (long long e : extra)
+    if (e > step) next = std::min(next, e);
+  return next;
+}
+
+namespace {
+
+bool all_finite(const Radiosity& field) {
+  for (double v : field.raw())
+    if (!std::isfinite(v)) return false;
+  return true;
+}
+
+class Evaluator {
+ public:
+  Evaluator(const Problem& problem, const RunLabels& labels, TraceWriter* trace)
+      : problem_(problem), labels_(labels), trace_(trace) {
+    if (problem.reference) {
+      const Radiosity& emission = problem.system->emission();
+      for (int c = 0; c < problem.reference->B.channels(); ++c) {
+        const auto b = problem.reference->B.channel(c);
+        const auto e = emission.channel(c);
+        for (size_t i = 0; i < b.size(); ++i) {
+          max_reference_ = std::max(max_reference_, b[i]);
+          max_reflected_ = std::max(max_reflected_, b[i] - e[i]);
+        }
+      }
+    }
+    for (double v : problem.system->emission().raw())
+      max_emission_ = std::max(max_emission_, std::abs(v));
+  }
+
+  // Writes the checkpoint rows; returns the certified relative bound (NaN if unavailable).
+  double evaluate(const Solver& solver, long long step, unsigned long long rows, double seconds,
+                  unsigned long long rays, unsigned long long pair_evals, RunResult& result) {
+    const Radiosity& B = solver.solution();
+    if (!all_finite(B))
+      throw NumericalError(labels_.run_id + ": non-finite radiosity at step " +
+                           std::to_string(step) + " (the solver diverged)");
+    const Radiosity display = solver.display();
+    const Radiosity* unshot = solver.unshot();
+    std::vector<double> residual;
+    if (problem_.has_matrix())
+      residual = residual_inf(*problem_.system, problem_.certified_matrix(), B);
+    else if (problem_.system->two_level() && problem_.reference)
+      residual = two_level_residual(problem_, B);  // from the patch rows (two_level_problem.h)
+    const double inverse_norm =
+        problem_.reference ? problem_.reference->inverse_norm_bound : std::nan("");
+    const auto area = problem_.system->area();
+    const int channels = B.channels();
+
+    double worst_residual = 0.0;
+    for (double r : residual) worst_residual = std::max(worst_residual, r);
+    if (!residual.empty()) {
+      if (initial_residual_ < 0) initial_residual_ = worst_residual;
+      // Divergence: the residual grew by 1e8 over the initial one AND over ||E||_inf, the
+      // residual of B = 0. The absolute scale matters when the initial residual is near zero:
+      // a matrix whose rows never see a tiny lamp has residual ~0 at B = E, and any light the
+      // lamp's own row shoots "grows" it by orders of magnitude without anything diverging.
+      const double scale = std::max(initial_residual_, max_emission_);
+      if (worst_residual > 1e8 * std::max(scale, 1e-300) && worst_residual > 0)
+        throw NumericalError(labels_.run_id + ": diverging: residual grew from " +
+                             text::format_double(initial_residual_) + " to " +
+                             text::format_double(worst_residual) + " by step " +
+                             std::to_string(step) + ", 1e8 times both the initial residual and " +
+                             "||E||_inf = " + text::format_double(max_emission_));
+    }
+
+    // One row for the mean of the channels, then one per channel when there are three.
+    std::vector<int> fields = {kMeanOfChannels};
+    if (channels == 3) fields.insert(fields.end(), {0, 1, 2});
+    const char* names[] = {"r", "g", "b"};
+    for (int field : fields) {
+      TraceRow row;
+      row.run_id = labels_.run_id;
+      row.scene = labels_.scene;
+      row.solver = labels_.solver;
+      row.params = labels_.params;
+      row.channel = field == kMeanOfChannels ? "mean" : names[field];
+      row.step = step;
+      row.ff_rows = rows;
+      row.seconds = seconds;
+      row.rays = rays;
+      row.pair_evals = pair_evals;
+      row.reference_kind = problem_.reference ? problem_.reference->kind : "none";
+      row.solver_elements =
+          solver.solver_elements() > 0 ? solver.solver_elements() : problem_.system->size();
+      const double nan = std::nan("");
+      ErrorMetrics e, d;
+      ReflectedRms reflected;
+      if (problem_.reference) {
+        e = compare(B, problem_.reference->B, area, field);
+        d = compare(display, problem_.reference->B, area, field);
+        reflected =
+            compare_reflected(B, problem_.reference->B, problem_.system->emission(), area, field);
+      }
+      auto or_nan = [&](double v) { return problem_.reference ? v : nan; };
+      row.rms = or_nan(e.rms);
+      row.rms_rel = or_nan(e.rms_rel);
+      row.p_mean = or_nan(e.p_mean);
+      row.p_rms = or_nan(e.p_rms);
+      row.p_max = or_nan(e.p_max);
+      row.p_over = or_nan(e.p_over);
+      row.p_under = or_nan(e.p_under);
+      row.p_excluded = e.p_excluded;
+      row.rms_display = or_nan(d.rms);
+      row.rms_rel_display = or_nan(d.rms_rel);
+      row.p_mean_display = or_nan(d.p_mean);
+      row.p_rms_display = or_nan(d.p_rms);
+      row.p_max_display = or_nan(d.p_max);
+      row.rms_reflected = or_nan(reflected.rms);
+      row.rms_rel_reflected = or_nan(reflected.rms_rel);
+      if (!residual.empty()) {
+        row.residual_inf = field == kMeanOfChannels ? worst_residual : residual[size_t(field)];
+        row.bound_inf = row.residual_inf * inverse_norm;
+      } else {
+        row.residual_inf = row.bound_inf = nan;
+      }
+      row.unshot_power = unshot ? total_power(*unshot, area, field) : nan;
+      row.total_power = total_power(B, area, field);
+      if (trace_) trace_->write(row);
+      if (field == kMeanOfChannels) {
+        result.final_errors = e;
+        result.final_display_errors = d;
+        result.final_reflected = reflected;
+      }
+    }
+    const double bound = residual.empty() ? std::nan("") : worst_residual * inverse_norm;
+    return max_reference_ > 0 ? bound / max_reference_ : bound;
+  }
+
+  // max B* / max(B* - E): turns a bound relative to max B* into one relative to the reflected
+  // light (NaN when there is no reference or nothing is reflected).
+  double reflected_scale() const {
+    return max_reflected_ > 0 && max_reference_ > 0 ? max_reference_ / max_reflected_
+                                                    : std::nan("");
+  }
+
+ private:
+  const Problem& problem_;
+  const RunLabels& labels_;
+  TraceWriter* trace_;
+  double max_reference_ = 0.0;
+  double max_reflected_ = 0.0;  // max over elements and channels of B* - E
+  double max_emission_ = 0.0;
+  double initial_residual_ = -1.0;
+};
+
+// Stagnation, with a tolerance to reach: the best certified bound of the second half of the
+// work is not 1% below the best of the first half. Judged only once that half spans
+// max(20, ln 2 / -ln r) sweeps, r the reference's upper bound on the spectral radius of
+// diag(rho)F: Jacobi, the slowest stationary method here, gains a factor r per sweep, so over
+// that window it halves its error. A slower solver (damped Jacobi at omega = 1/2 gains
+// 1 - (1-r)/2) still gains ~30%, far above 1%. Best-of-half, not the bound at one checkpoint:
+// mid-sweep a gathering solver's iterate mixes two sweeps and its inf-norm residual oscillates.
+void check_stagnation(const Problem& problem, const RunResult& result, double bound,
+                      const std::string& tolerance, const std::string& run_id) {
+  const double n = double(problem.system->size());
+  const double rows_now = double(problem.system->rows_used());
+  const double r = problem.reference ? problem.reference->spectral_radius_upper : 0.0;
+  const double sweeps = r > 0.0 && r < 1.0 ? std::max(20.0, std::log(2.0) / -std::log(r)) : 20.0;
+  if (rows_now < 2.0 * sweeps * n) return;
+  double before = std::numeric_limits<double>::infinity(), after = bound;
+  for (const CheckpointRecord& c : result.history) {
+    if (!std::isfinite(c.bound_relative)) continue;
+    if (double(c.rows) <= 0.5 * rows_now)
+      before = std::min(before, c.bound_relative);
+    else
+      after = std::min(after, c.bound_relative);
+  }
+  if (!std::isfinite(before) || after < 0.99 * before) return;
+  std::string why =
+      "the best bound of the last " + text::format_double(0.5 * rows_now) + " rows (" +
+      text::format_double(after) + ") is not 1% below the best before (" +
+      text::format_double(before) + "), over " + std::to_string(long(std::ceil(sweeps))) +
+      "+ sweeps in which a solver converging at the spectral radius (<= " + text::format_double(r) +
+      " per sweep) halves its error";
+  if (problem.computed.size() > 0 ||
+      (problem.system->two_level() && problem.patch_rows.precision() == Precision::kFloat))
+    why +=
+        ". F is stored in float and the certificate is of the double-precision F: float "
+        "rounding floors the bound (use --precision double to go lower)";
+  throw NumericalError(run_id + ": stagnated at certified relative bound " +
+                       text::format_double(bound) + " of max B* (tolerance " + tolerance +
+                       "): " + why);
+}
+
+}  // namespace
+
+RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budget_in,
+                     const CheckpointSchedule& schedule, const RunLabels& labels,
+                     TraceWriter* trace, const CheckpointHook& hook) {
+  const System& system = *problem.system;
+  Budget budget = budget_in;
+  // Callers validate with the user's words (file:line, option name); this is the last guard
+  // against a budget that can never be reached, which would run forever.
+  budget.validate();
+  if (budget.tol && !problem.reference)
+    throw UsageError("--tol needs the reference (it bounds the error with its certificate)");
+  // Never run unbounded: a tolerance alone is capped at 1000 sweeps' worth of rows, and
+  // stagnation stops it sooner.
+  if (budget.empty()) budget.steps = 3 * static_cast<long long>(system.size());
+  if (!budget.steps && !budget.rows && !budget.seconds)
+    budget.rows = 1000 * static_cast<long long>(system.size());
+
+  RunResult result;
+  Evaluator evaluator(problem, labels, trace);
+  // A tolerance on the reflected light is converted once to the max-B* scale the bounds are
+  // computed in, so the stop test and the stagnation test need no second scale.
+  const double scale = evaluator.reflected_scale();
+  if (budget.tol && budget.tol_of_reflected) {
+    if (!std::isfinite(scale))
+      throw UsageError("--tol-of reflected: the reference reflects no light (max(B* - E) = 0)");
+    budget.tol = *budget.tol / scale;
+  }
+  const std::string tolerance_text =
+      !budget.tol               ? std::string()
+      : budget.tol_of_reflected ? text::format_double(*budget.tol) + " of max B*, i.e. " +
+                                      text::format_double(*budget_in.tol) + " of max(B* - E)"
+                                : text::format_double(*budget.tol) + " of max B*";
+  using Clock = std::chrono::steady_clock;
+  system.reset_counters();
+  auto t0 = Clock::now();
+  solver.init(system);
+  double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+
+  const double total = budget.steps  ? double(*budget.steps)
+                       : budget.rows ? double(*budget.rows)
+                                     : 0.0;
+  Progress progress(labels.run_id, budget.steps ? "steps" : "rows", total);
+  long long step = 0;
+  long long next_checkpoint = schedule.next_after(0);
+  auto checkpoint = [&]() {
+    const double bound = evaluator.evaluate(solver, step, system.rows_used(), seconds,
+                                            system.rays_used(), system.pair_evaluations(), result);
+    CheckpointRecord record;
+    record.step = step;
+    record.rows = system.rows_used();
+    record.pair_evals = system.pair_evaluations();
+    record.seconds = seconds;
+    const double nan = std::nan("");
+    const bool measured = problem.reference.has_value();
+    record.rms_rel = measured ? result.final_errors.rms_rel : nan;
+    record.p_mean = measured ? result.final_errors.p_mean : nan;
+    record.rms_rel_display = measured ? result.final_display_errors.rms_rel : nan;
+    record.p_mean_display = measured ? result.final_display_errors.p_mean : nan;
+    record.rms_rel_reflected = measured ? result.final_reflected.rms_rel : nan;
+    record.bound_relative = bound;
+    result.history.push_back(record);
+    if (hook) hook(step, solver);
+    return bound;
+  };
+
+  double bound = checkpoint();
+  for (;;) {
+    if (budget.tol && bound <= *budget.tol) {
+      result.stop_reason = "tolerance reached";
+      break;
+    }
+    if (const char* reason = budget.exhausted(step, system.rows_used(), seconds)) {
+      result.stop_reason = reason;
+      break;
+    }
+    auto start = Clock::now();
+    const StepInfo info = solver.step();
+    seconds += std::chrono::duration<double>(Clock::now() - start).count();
+    ++step;
+    progress.update(budget.steps ? double(step) : double(system.rows_used()));
+
+    const bool at_end =
+        info.finished || budget.exhausted(step, system.rows_used(), seconds) != nullptr;
+    if (step == next_checkpoint || at_end) {
+      bound = checkpoint();
+      next_checkpoint = schedule.next_after(step);
+      if (budget.tol) check_stagnation(problem, result, bound, tolerance_text, labels.run_id);
+    }
+    if (info.finished) {
+      result.stop_reason = "solver finished";
+      break;
+    }
+  }
+  progress.finish(result.stop_reason);
+  result.steps = step;
+  result.rows = system.rows_used();
+  result.rays = system.rays_used();
+  result.pair_evals = system.pair_evaluations();
+  result.reference_kind = problem.reference ? problem.reference->kind : "none";
+  result.seconds = seconds;
+  result.final_bound_relative = bound;
+  result.final_bound_relative_reflected = bound * scale;
+  result.tolerance_of_reflected = budget.tol_of_reflected;
+  if (budget.tol) {
+    result.tolerance_asked = true;
+    result.tolerance_reached = bound <= *budget.tol;
+    const std::string of = budget.tol_of_reflected ? " of max(B* - E)" : " of max B*";
+    const double asked = budget_in.tol.value_or(0.0);
+    const double reached = budget.tol_of_reflected ? bound * scale : bound;
+    if (!result.tolerance_reached)
+      result.tolerance_message =
+          "tolerance " + text::format_double(asked) + of + " not reached: certified bound " +
+          text::format_double(reached) + of + " when the run stopped (" + result.stop_reason + ")" +
+          (budget_in.steps || budget_in.rows || budget_in.seconds
+               ? ""
+               : " (a tolerance alone is capped at 1000 sweeps' worth of rows)");
+  }
+  if (trace) trace->flush();
+  return result;
+}
+
+}  // namespace radlab

@@ -1,0 +1,97 @@
+// The runner measures; solvers compute (DESIGN §4, like Ceres' iteration callbacks and pbrt's
+// render loop). It times every step() (the clock excludes metric evaluation), evaluates the
+// metrics at a checkpoint schedule (every step early on, then geometrically spaced), writes the
+// trace, enforces the budget, and detects numerical trouble: non-finite values, divergence
+// (absolute and relative), and stagnation when a tolerance is asked for (judged over a window
+// long enough for the slowest stationary method at the scene's spectral radius; docs/reference.md).
+#pragma once
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "experiments/problem/problem.h"
+#include "experiments/run/trace.h"
+#include "metrics/error_metrics.h"
+#include "solvers/solver.h"
+
+namespace radlab {
+
+struct Budget {
+  std::optional<long long> steps;  // solver steps
+  std::optional<long long> rows;   // form-factor rows
+  std::optional<double> seconds;   // solver seconds (metric evaluation excluded)
+  std::optional<double> tol;       // certified relative error bound ||B-B*||_inf / max B*
+  // The tolerance is relative to the reflected light, max(B* - E), instead of max B*. A scene
+  // lit by a tiny bright lamp has max B* at the lamp: a bound of 1e-9 of it can leave the room
+  // (B - E) several per cent off (docs/stability.md, the tiny-light column).
+  bool tol_of_reflected = false;
+
+  bool empty() const { return !steps && !rows && !seconds && !tol; }
+  std::string describe() const;
+  // Throws a UsageError unless steps and rows are >= 1, seconds finite and > 0, tol in (0,1): a
+  // budget that can never be reached would run forever. The command line and experiment files
+  // check first, in the user's words (option name, file:line); this is the last guard.
+  void validate() const;
+  // The stop reason ("step budget", "row budget", "time budget") once the step, row or time
+  // budget is used up, else null. The tolerance is checked by the runner (it needs the bound).
+  const char* exhausted(long long step, unsigned long long rows, double seconds) const;
+};
+
+struct CheckpointSchedule {
+  long long every_step_until = 10;  // evaluate at steps 0..every_step_until
+  double growth = 1.2;              // then at steps growing by this factor
+  std::vector<long long> extra;     // and at these steps
+
+  // The first checkpoint after `step`.
+  long long next_after(long long step) const;
+};
+
+struct RunLabels {
+  std::string run_id, scene, solver, params;
+};
+
+// The mean-of-channels metrics at one checkpoint, kept for the summary and the fits.
+struct CheckpointRecord {
+  long long step = 0;
+  unsigned long long rows = 0;
+  unsigned long long pair_evals = 0;
+  double seconds = 0.0;
+  double rms_rel = 0.0, p_mean = 0.0, rms_rel_display = 0.0, p_mean_display = 0.0;
+  double rms_rel_reflected = 0.0;
+  double bound_relative = 0.0;
+};
+
+struct RunResult {
+  std::vector<CheckpointRecord> history;
+  long long steps = 0;
+  unsigned long long rows = 0, rays = 0, pair_evals = 0;
+  double seconds = 0.0;
+  std::string stop_reason;
+  std::string reference_kind = "none";  // Reference::kind, or "none" without a reference
+  ErrorMetrics final_errors;            // on the mean of the channels, solution()
+  ErrorMetrics final_display_errors;    // on the mean of the channels, display()
+  ReflectedRms final_reflected;         // on the mean of the channels, solution() - E
+  double final_bound_relative = 0.0;    // certified ||B-B*||_inf / max B*, if a matrix exists
+  // The same bound relative to the reflected light: ||B-B*||_inf / max(B* - E); NaN without a
+  // reference or when nothing is reflected.
+  double final_bound_relative_reflected = 0.0;
+  bool tolerance_of_reflected = false;  // the tolerance was relative to max(B* - E)
+  // With a tolerance in the budget: whether the certified bound reached it. False means another
+  // budget (or the 1,000-sweep cap of a tolerance alone) stopped the run first; `radlab solve`
+  // then exits 5 (docs/outputs.md).
+  bool tolerance_asked = false;
+  bool tolerance_reached = false;
+  // "tolerance 1e-10 not reached: ..." when asked and not reached, else empty.
+  std::string tolerance_message;
+};
+
+// Called at every checkpoint after the metrics are written (e.g. to save images).
+using CheckpointHook = std::function<void(long long step, const Solver& solver)>;
+
+RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budget,
+                     const CheckpointSchedule& schedule, const RunLabels& labels,
+                     TraceWriter* trace, const CheckpointHook& hook = {});
+
+}  // namespace radlab

@@ -1,0 +1,46 @@
+// summary.csv: one row per run (DESIGN §7): final errors, the rows and seconds needed to reach
+// rms_rel 1e-1/1e-2/1e-3 and p_mean 1e-2, and the Ceres-fitted convergence rate. For gathering
+// solvers the fitted per-sweep rate sits beside the spectral radius of diag(rho)F.
+#pragma once
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "core/csv.h"
+#include "experiments/run/runner.h"
+
+namespace radlab {
+
+const std::vector<std::string>& summary_columns();
+// Columns whose values depend on the machine's speed (left out when comparing re-runs).
+const std::vector<std::string>& summary_time_columns();
+
+struct SummaryInputs {
+  size_t run_index = 0;
+  RunLabels labels;
+  size_t elements = 0;
+  int channels = 1;
+  bool gathering = false;        // one step = one gather: a sweep is n steps
+  double spectral_radius = 0.0;  // of diag(rho)F, worst channel (NaN if not estimated): the
+                                 // Collatz–Wielandt upper bound, and below the lower bound
+  double spectral_radius_lower = std::nan("");
+};
+
+// What first_reach measures, and against which x.
+enum class ReachMetric { kRmsRel, kPMean, kRmsRelReflected };
+enum class ReachAxis { kRows, kSeconds, kPairEvals };
+
+// The x at which a decreasing trace first reaches `threshold`, interpolated linearly in
+// log(error) between the bracketing checkpoints (NaN if never reached).
+double first_reach(const std::vector<CheckpointRecord>& history, double threshold, ReachAxis axis,
+                   ReachMetric metric);
+
+void write_summary_row(CsvWriter& csv, const SummaryInputs& in, const RunResult& result);
+
+// The row of a run that failed: its labels (and elements/channels if the problem was prepared),
+// `stop_reason` (e.g. "failed: numerical error") and the message in `error`; the rest empty.
+void write_failed_summary_row(CsvWriter& csv, const SummaryInputs& in,
+                              const std::string& stop_reason, const std::string& error);
+
+}  // namespace radlab

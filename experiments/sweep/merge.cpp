@@ -1,0 +1,356 @@
+#include "experiments/sweep/merge.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <map>
+#include <set>
+
+#include "core/csv.h"
+#include "core/csv_reader.h"
+#include "core/error.h"
+#include "core/json.h"
+#include "core/json_reader.h"
+#include "core/output_file.h"
+#include "core/text.h"
+#include "experiments/sweep/sweep.h"
+
+namespace radlab {
+namespace {
+namespace fs = std::filesystem;
+
+struct Shard {
+  std::string dir;
+  Json sweep;
+  CsvTable summary, trace;
+  int index = 0, count = 1;
+  std::set<std::string> stems;  // file stems of its runs
+};
+
+std::string text_at(const Json& json, const std::string& key) {
+  auto it = json.find(key);
+  if (it == json.end()) return std::string();
+  return it->is_string() ? it->get<std::string>() : it->dump();
+}
+
+// The value of `key` (or build.`key`) in a shard's sweep.json, refused when missing.
+std::string required(const Shard& s, const std::string& key, bool in_build = false) {
+  const Json* object = &s.sweep;
+  if (in_build) {
+    auto build = s.sweep.find("build");
+    if (build == s.sweep.end() || !build->is_object())
+      throw InputError(s.dir + "/sweep.json: no 'build' (written by an older radlab?)");
+    object = &*build;
+  }
+  auto it = object->find(key);
+  if (it == object->end())
+    throw InputError(s.dir + "/sweep.json: no '" + (in_build ? "build." : "") + key +
+                     "' (written by an older radlab? run the shard again)");
+  return it->is_string() ? it->get<std::string>() : it->dump();
+}
+
+// a is b, or lies inside it.
+bool within(const fs::path& a, const fs::path& b) {
+  auto ai = a.begin();
+  for (auto bi = b.begin(); bi != b.end(); ++bi, ++ai) {
+    if (bi->empty()) continue;  // trailing separator
+    if (ai == a.end() || *ai != *bi) return false;
+  }
+  return true;
+}
+
+fs::path absolute_path(const std::string& dir) {
+  std::error_code ec;
+  fs::path p = fs::weakly_canonical(fs::absolute(dir), ec);
+  return ec ? fs::absolute(dir).lexically_normal() : p;
+}
+
+Shard read_shard(const std::string& dir) {
+  Shard s;
+  s.dir = dir;
+  if (!fs::is_directory(dir)) throw InputError(dir + ": no such shard folder");
+  s.sweep = read_json_file((fs::path(dir) / "sweep.json").string());
+  if (!s.sweep.is_object()) throw InputError(dir + "/sweep.json: not a JSON object");
+  const std::string status = required(s, "status");
+  if (status != "complete")
+    throw InputError(dir + "/sweep.json: status '" + status +
+                     "': the shard is not complete (interrupted or still running); run it again "
+                     "with the same command to finish it");
+  auto shard = text::split(required(s, "shard"), '/');
+  auto i = shard.size() == 2 ? text::parse_int(shard[0]) : std::nullopt;
+  auto n = shard.size() == 2 ? text::parse_int(shard[1]) : std::nullopt;
+  if (!i || !n || *n < 1 || *i < 0 || *i >= *n || *n > (1 << 30))
+    throw InputError(dir + "/sweep.json: bad shard '" + required(s, "shard") + "'");
+  s.index = int(*i);
+  s.count = int(*n);
+  s.summary = read_csv((fs::path(dir) / "summary.csv").string());
+  s.trace = read_csv((fs::path(dir) / "trace.csv").string());
+  return s;
+}
+
+// Copies the files of `shard`'s runs (names starting with a run's file stem) from `folder`.
+void copy_run_files(const Shard& shard, const char* folder, const fs::path& to) {
+  const fs::path from = fs::path(shard.dir) / folder;
+  if (!fs::exists(from)) return;
+  fs::create_directories(to / folder);
+  for (const auto& entry : fs::directory_iterator(from)) {
+    if (!entry.is_regular_file()) continue;
+    const std::string name = entry.path().filename().string();
+    bool ours = false;
+    for (const std::string& stem : shard.stems)
+      if (name.rfind(stem + ".", 0) == 0 || name.rfind(stem + "_step", 0) == 0) ours = true;
+    if (ours && name.find(".tmp.") == std::string::npos)
+      fs::copy_file(entry.path(), to / folder / name, fs::copy_options::overwrite_existing);
+  }
+}
+
+void write_rows(const std::string& path, const std::vector<std::string>& header,
+                const std::vector<const std::vector<std::string>*>& rows) {
+  OutputFile out(path);
+  auto line = [](const std::vector<std::string>& fields) {
+    std::string text;
+    for (size_t k = 0; k < fields.size(); ++k) text += (k ? "," : "") + csv_field(fields[k]);
+    return text + '\n';
+  };
+  out.write(line(header));
+  for (const auto* row : rows) out.write(line(*row));
+  out.commit();
+}
+
+// Array items of `key` from every shard, ordered by their integer field `order_key` (items
+// with the same order value, e.g. one problem seen by two shards, are kept once).
+Json merged_array(const std::vector<Shard>& shards, const std::string& key,
+                  const std::string& order_key) {
+  std::map<long long, Json> by_order;
+  for (const Shard& s : shards) {
+    auto array = s.sweep.find(key);
+    if (array == s.sweep.end()) continue;
+    if (!array->is_array()) throw InputError(s.dir + "/sweep.json: '" + key + "' is not an array");
+    for (const Json& item : *array) {
+      if (!item.is_object() || !item.contains(order_key) || !item[order_key].is_number_integer())
+        throw InputError(s.dir + "/sweep.json: an item of '" + key + "' has no integer '" +
+                         order_key + "'");
+      by_order.emplace(item[order_key].get<long long>(), item);
+    }
+  }
+  Json out = Json::array();
+  for (auto& [order, item] : by_order) out.push_back(item);
+  return out;
+}
+
+}  // namespace
+
+size_t merge_sweeps(const std::vector<std::string>& dirs, const std::string& out_dir,
+                    const std::string& command) {
+  MergeOptions options;
+  options.command = command;
+  return merge_shards(dirs, out_dir, options);
+}
+
+size_t merge_shards(const std::vector<std::string>& dirs, const std::string& out_dir,
+                    const MergeOptions& options) {
+  if (dirs.empty()) throw UsageError("merge: give at least one shard folder");
+  if (out_dir.empty()) throw UsageError("merge: give an output folder (--out)");
+
+  // The output may not be, lie in, or contain a shard: writing it would damage the shard.
+  const fs::path out = absolute_path(out_dir);
+  for (const std::string& dir : dirs) {
+    const fs::path shard = absolute_path(dir);
+    if (within(out, shard))
+      throw UsageError("merge: --out " + out_dir + " is " + (out == shard ? "" : "inside ") +
+                       "the shard " + dir + "; choose a folder outside every shard");
+    if (within(shard, out))
+      throw UsageError("merge: the shard " + dir + " lies inside --out " + out_dir +
+                       "; choose a folder outside every shard");
+  }
+  if (fs::exists(out)) {
+    if (!fs::is_directory(out)) throw UsageError("merge: --out " + out_dir + " is not a folder");
+    if (!fs::exists(out / "sweep.json") && !fs::is_empty(out))
+      throw UsageError("merge: --out " + out_dir +
+                       " is not empty and holds no sweep; choose an empty or new folder");
+  }
+
+  // Read and check everything before writing anything.
+  std::vector<Shard> shards;
+  for (const std::string& dir : dirs) shards.push_back(read_shard(dir));
+  const Shard& first = shards.front();
+  for (const Shard& s : shards) {
+    struct Check {
+      const char* key;
+      bool in_build;
+      const char* meaning;
+    };
+    for (const Check& c :
+         {Check{"name", false, "shards of different experiments"},
+          Check{"experiment_digest", false, "the experiment file was edited between the shards"},
+          Check{"plan_digest", false, "the shards planned different runs"},
+          Check{"runs_total", false, "the shards planned different runs"},
+          Check{"git_sha", true, "the shards were run by different builds"},
+          Check{"source_hash", true, "the shards were run by different form-factor code"}}) {
+      const std::string a = required(first, c.key, c.in_build);
+      const std::string b = required(s, c.key, c.in_build);
+      if (a != b)
+        throw InputError("merge: " + s.dir + "/sweep.json: " + (c.in_build ? "build." : "") +
+                         c.key + " '" + b + "' differs from " + first.dir + "/sweep.json ('" + a +
+                         "'): " + c.meaning);
+    }
+    if (s.summary.header != first.summary.header)
+      throw InputError(s.summary.path + ": summary columns differ from " + first.summary.path);
+    if (s.trace.header != first.trace.header)
+      throw InputError(s.trace.path + ": trace columns differ from " + first.trace.path);
+    if (s.count != first.count)
+      throw InputError("merge: " + s.dir + " is shard " + std::to_string(s.index) + "/" +
+                       std::to_string(s.count) + " of a " + std::to_string(s.count) +
+                       "-way split, " + first.dir + " of a " + std::to_string(first.count) +
+                       "-way split");
+  }
+  const long long runs_total = std::stoll(required(first, "runs_total"));
+
+  // Summary rows: each shard's are the runs its sweep.json lists, of its shard; none twice.
+  std::vector<std::pair<long long, const std::vector<std::string>*>> ordered;
+  std::map<std::string, std::string> seen;  // run_id -> shard folder
+  std::map<int, std::string> shard_seen;    // shard index -> folder
+  for (Shard& s : shards) {
+    if (!shard_seen.emplace(s.index, s.dir).second)
+      throw InputError("merge: " + s.dir + " and " + shard_seen[s.index] + " are both shard " +
+                       std::to_string(s.index) + "/" + std::to_string(s.count));
+    const size_t index_column = s.summary.column("run_index");
+    const size_t id_column = s.summary.column("run_id");
+    std::set<std::string> listed;
+    auto runs = s.sweep.find("runs");
+    if (runs == s.sweep.end() || !runs->is_array())
+      throw InputError(s.dir + "/sweep.json: no 'runs' list");
+    for (const Json& id : *runs) {
+      if (!id.is_string()) throw InputError(s.dir + "/sweep.json: a run id is not a string");
+      listed.insert(id.get<std::string>());
+      s.stems.insert(file_stem(id.get<std::string>()));
+    }
+    std::set<std::string> in_summary;
+    for (const auto& row : s.summary.rows) {
+      auto index = text::parse_int(row[index_column]);
+      if (!index || *index < 0 || *index >= runs_total)
+        throw InputError(s.summary.path + ": bad run_index '" + row[index_column] + "'");
+      if (*index % s.count != s.index)
+        throw InputError(s.summary.path + ": run " + row[id_column] + " (index " +
+                         row[index_column] + ") does not belong to shard " +
+                         std::to_string(s.index) + "/" + std::to_string(s.count));
+      if (!seen.emplace(row[id_column], s.dir).second)
+        throw InputError("merge: run '" + row[id_column] + "' is in " + seen[row[id_column]] +
+                         " and in " + s.dir);
+      in_summary.insert(row[id_column]);
+      ordered.emplace_back(*index, &row);
+    }
+    if (in_summary != listed)
+      throw InputError("merge: " + s.summary.path + " holds " + std::to_string(in_summary.size()) +
+                       " runs but " + s.dir + "/sweep.json lists " + std::to_string(listed.size()) +
+                       " (a damaged or mixed folder)");
+  }
+  std::sort(ordered.begin(), ordered.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (size_t k = 1; k < ordered.size(); ++k)
+    if (ordered[k].first == ordered[k - 1].first)
+      throw InputError("merge: two runs have run_index " + std::to_string(ordered[k].first));
+
+  // Every run of the sweep, or a visible refusal.
+  std::vector<std::string> missing_shards;
+  for (int i = 0; i < first.count; ++i)
+    if (!shard_seen.count(i))
+      missing_shards.push_back(std::to_string(i) + "/" + std::to_string(first.count));
+  const long long missing = runs_total - static_cast<long long>(ordered.size());
+  if (missing != 0 && !options.allow_incomplete)
+    throw InputError("merge: the shards hold " + std::to_string(ordered.size()) + " of the " +
+                     std::to_string(runs_total) + " runs of the sweep" +
+                     (missing_shards.empty()
+                          ? std::string()
+                          : "; missing shards: " + text::join(missing_shards, ", ")) +
+                     " (--allow-incomplete merges them, marked incomplete)");
+
+  // Trace rows grouped by run in their original order; none repeated, none of an unknown run.
+  const size_t trace_id = first.trace.column("run_id");
+  const size_t trace_step = first.trace.column("step");
+  const size_t trace_channel = first.trace.column("channel");
+  std::map<std::string, std::vector<const std::vector<std::string>*>> by_run;
+  for (const Shard& s : shards) {
+    std::set<std::tuple<std::string, std::string, std::string>> rows_seen;
+    const size_t id_column = s.summary.column("run_id");
+    std::set<std::string> ids;
+    for (const auto& row : s.summary.rows) ids.insert(row[id_column]);
+    for (size_t r = 0; r < s.trace.rows.size(); ++r) {
+      const auto& row = s.trace.rows[r];
+      if (!ids.count(row[trace_id]))
+        throw InputError(s.trace.path + ": a row of run '" + row[trace_id] + "', which is not in " +
+                         s.summary.path);
+      if (!rows_seen.emplace(row[trace_id], row[trace_step], row[trace_channel]).second)
+        throw InputError(s.trace.path + ": row " + std::to_string(r + 2) + " repeats run '" +
+                         row[trace_id] + "' step " + row[trace_step] + " channel " +
+                         row[trace_channel]);
+      by_run[row[trace_id]].push_back(&row);
+    }
+  }
+
+  std::vector<const std::vector<std::string>*> summary_rows, trace_rows;
+  const size_t id_column = first.summary.column("run_id");
+  std::vector<std::string> run_ids;
+  for (const auto& [index, row] : ordered) {
+    summary_rows.push_back(row);
+    run_ids.push_back((*row)[id_column]);
+    for (const auto* t : by_run[(*row)[id_column]]) trace_rows.push_back(t);
+  }
+
+  // sweep.json: the unsplit run's, with every shard's runs, failures and problems in the sweep's
+  // order; `merged_from` names the shards and their commands.
+  Json merged = first.sweep;
+  if (!options.command.empty()) merged["command"] = options.command;
+  merged["shard"] = "0/1";
+  merged["status"] = missing == 0 ? "complete" : "incomplete";
+  merged["runs"] = run_ids;
+  if (merged.contains("failed")) merged["failed"] = merged_array(shards, "failed", "run_index");
+  if (merged.contains("problems")) merged["problems"] = merged_array(shards, "problems", "index");
+  if (missing != 0) {
+    merged["missing_runs"] = missing;
+    merged["missing_shards"] = missing_shards;
+  }
+  Json from = Json::array();
+  for (const Shard& s : shards)
+    from.push_back({{"folder", s.dir},
+                    {"shard", text_at(s.sweep, "shard")},
+                    {"command", text_at(s.sweep, "command")}});
+  merged["merged_from"] = from;
+
+  // Write into a temporary sibling, then put it in place.
+  const fs::path temp = out.string() + ".tmp." + std::to_string(::getpid());
+  try {
+    fs::remove_all(temp);
+    fs::create_directories(temp);
+    write_rows((temp / "summary.csv").string(), first.summary.header, summary_rows);
+    write_rows((temp / "trace.csv").string(), first.trace.header, trace_rows);
+    for (const Shard& s : shards)
+      for (const char* folder : {"runs", "images", "coverage"}) copy_run_files(s, folder, temp);
+    JsonWriter json;
+    write_json_value(json, merged);
+    json.save((temp / "sweep.json").string());
+    if (fs::exists(out)) {
+      // An empty folder, or a previous sweep: moved aside, replaced, then removed.
+      const fs::path old = out.string() + ".old." + std::to_string(::getpid());
+      fs::rename(out, old);
+      fs::rename(temp, out);
+      fs::remove_all(old);
+    } else {
+      if (out.has_parent_path()) fs::create_directories(out.parent_path());
+      fs::rename(temp, out);
+    }
+  } catch (const fs::filesystem_error& e) {
+    std::error_code ignored;
+    fs::remove_all(temp, ignored);
+    throw InputError("merge: cannot write " + out_dir + " (" + e.code().message() + ": " +
+                     e.path1().string() + ")");
+  } catch (...) {
+    std::error_code ignored;
+    fs::remove_all(temp, ignored);
+    throw;
+  }
+  return ordered.size();
+}
+
+}  // namespace radlab

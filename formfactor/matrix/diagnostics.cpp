@@ -1,0 +1,381 @@
+#include "formfactor/matrix/diagnostics.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+#include <map>
+
+#include "core/param_bag.h"
+#include "core/text.h"
+#include "formfactor/methods/exact.h"
+#include "formfactor/methods/raycast.h"
+#include "scene/overlap.h"
+
+namespace radlab {
+
+MatrixDiagnostics diagnose(const FormFactorMatrix& m, std::span<const double> area) {
+  MatrixDiagnostics d;
+  const size_t n = m.size();
+  d.row_sum_min = n ? 1e300 : 0.0;
+  d.row_sum_max = n ? -1e300 : 0.0;
+  double largest = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    double sum = 0.0;
+    m.visit_row(i, [&](const auto* row) {
+      for (size_t j = 0; j < n; ++j) {
+        const double f = double(row[j]);
+        if (!std::isfinite(f)) {
+          ++d.non_finite_entries;
+          continue;
+        }
+        if (f < 0) ++d.negative_entries;
+        if (f != 0) ++d.nonzero_entries;
+        sum += f;
+        largest = std::max(largest, area[i] * f);
+      }
+    });
+    d.row_sum_min = std::min(d.row_sum_min, sum);
+    d.row_sum_max = std::max(d.row_sum_max, sum);
+  }
+  // A pair where both entries are zero has no defect, so every pair with a non-zero entry is
+  // visited from that entry's row (some twice: the maximum does not mind). With a sparse matrix
+  // this reads O(non-zeros) entries of the other row instead of n^2.
+  for (size_t i = 0; i < n; ++i)
+    m.visit_row(i, [&](const auto* row) {
+      for (size_t j = 0; j < n; ++j) {
+        if (row[j] == 0 || j == i) continue;
+        const double a = area[i] * double(row[j]), b = area[j] * m.at(j, i);
+        if (!std::isfinite(a) || !std::isfinite(b)) continue;
+        const double defect = std::abs(a - b);
+        d.reciprocity_defect = std::max(d.reciprocity_defect, defect);
+        const double scale = std::max(a, b);
+        if (scale > 1e-12 * largest)
+          d.reciprocity_defect_relative = std::max(d.reciprocity_defect_relative, defect / scale);
+      }
+    });
+  return d;
+}
+
+std::string MatrixDiagnostics::summary() const {
+  char buffer[400];
+  std::snprintf(buffer, sizeof buffer,
+                "row sums [%.9g, %.9g], reciprocity defect %.3g (relative %.3g), %zu non-zero, "
+                "%zu negative, %zu non-finite entries",
+                row_sum_min, row_sum_max, reciprocity_defect, reciprocity_defect_relative,
+                nonzero_entries, negative_entries, non_finite_entries);
+  return buffer;
+}
+
+namespace {
+
+// The value of `key` in a canonical "k=v,..." parameter string, or `fallback`.
+double parameter(const std::string& parameters, const std::string& key, double fallback) {
+  for (const std::string& item : text::split(parameters, ',')) {
+    const size_t eq = item.find('=');
+    if (eq != std::string::npos && item.substr(0, eq) == key) {
+      try {
+        return std::stod(item.substr(eq + 1));
+      } catch (...) {
+        return fallback;
+      }
+    }
+  }
+  return fallback;
+}
+
+// Sum of the classic (midpoint) delta form factors of a hemicube of resolution R: the largest a
+// raw hemicube row can sum to (each pixel holds one element).
+double midpoint_weight_sum(int R) {
+  double sum = 0.0;
+  const double d = 2.0 / R;
+  for (int a = 0; a < R; ++a)
+    for (int b = 0; b < R; ++b) {  // top face z = 1, x, y in [-1, 1]
+      const double x = -1 + (a + 0.5) * d, y = -1 + (b + 0.5) * d;
+      const double r2 = x * x + y * y + 1.0;
+      sum += d * d / (M_PI * r2 * r2);
+    }
+  for (int a = 0; a < R; ++a)
+    for (int b = 0; b < R / 2; ++b) {  // one side face x = 1, y in [-1, 1], z in [0, 1]; four
+      const double y = -1 + (a + 0.5) * d, z = (b + 0.5) * d;
+      const double r2 = y * y + z * z + 1.0;
+      sum += 4.0 * z * d * d / (M_PI * r2 * r2);
+    }
+  return sum;
+}
+
+}  // namespace
+
+// Visibility allowance of exact's visibility=rays (still the empirical one raycast had before
+// its rows carried their own sampling error): 0.04/sqrt(rays), five times the largest excess
+// measured on builtin:cornell at --subdiv 6 (0.0019), falling as the noise.
+static double visibility_allowance(double rays) {
+  return 0.04 / std::sqrt(std::max(rays, 1.0));
+}
+
+double stated_row_sum_error(const FormFactorMethod& method, std::string* basis) {
+  const std::string name = method.name(), p = method.parameters();
+  // Float storage rounds each entry by 2^-24 relative: a row sum by at most 6e-8 of itself.
+  const double storage = 1e-7;
+  char buffer[600];
+  double error = 0.0;
+  if (name == "raycast") {
+    const double tolerance = parameter(p, "tolerance", 1e-4);
+    const auto* raycast = dynamic_cast<const RaycastFormFactors*>(&method);
+    const double sampling = raycast ? raycast->largest_row_sampling_error() : 0.0;
+    const double short_of = raycast ? raycast->largest_row_quadrature_excess() : 0.0;
+    error = tolerance + kRowSamplingSigmas * sampling + short_of + storage;
+    std::snprintf(buffer, sizeof buffer,
+                  "raycast: quadrature tolerance %.3g + float storage 1e-7 + %g standard errors of "
+                  "the row's visibility sampling (largest so far %.3g; each row is checked "
+                  "against its own)",
+                  tolerance, kRowSamplingSigmas, sampling);
+    if (short_of > 0.0) {
+      const size_t used = std::strlen(buffer);
+      std::snprintf(buffer + used, sizeof buffer - used,
+                    " + the row's quadrature left beyond the tolerance where an integral stopped "
+                    "at its depth limit or work cap (largest %.3g, %zu pairs)",
+                    short_of, raycast->pairs_short_of_tolerance());
+    }
+  } else if (name == "exact") {
+    const double tolerance = parameter(p, "tolerance", 1e-10);
+    const bool rays = p.find("visibility=rays") != std::string::npos;
+    // clip mode: pairs stopped by the work cap add their remaining error (exact.h)
+    const auto* exact = dynamic_cast<const ExactFormFactors*>(&method);
+    const double capped = exact ? exact->largest_row_excess() : 0.0;
+    error = tolerance + storage + capped +
+            (rays ? visibility_allowance(parameter(p, "rays", 64)) : 0.0);
+    std::snprintf(buffer, sizeof buffer, "exact: quadrature tolerance %.3g + float storage 1e-7%s",
+                  tolerance, rays ? " + visibility 0.04/sqrt(rays)" : "");
+    if (capped > 0.0) {
+      const size_t used = std::strlen(buffer);
+      std::snprintf(buffer + used, sizeof buffer - used,
+                    " + %.3g (the largest row's remaining error of %zu pairs stopped short of "
+                    "the tolerance by max_evaluations or max_depth)",
+                    capped, exact->pairs_capped());
+    }
+  } else if (name == "hemicube") {
+    const int R = int(parameter(p, "resolution", 150));
+    const bool midpoint = p.find("weights=exact") == std::string::npos;
+    const double excess = midpoint ? std::max(0.0, midpoint_weight_sum(R) - 1.0) : 0.0;
+    error = excess + 1e-6 + storage;
+    std::snprintf(buffer, sizeof buffer,
+                  "hemicube: a raw row is at most the sum of its pixel weights (%s: 1 + %.3g) + "
+                  "rounding 1e-6",
+                  midpoint ? "midpoint" : "exact", excess);
+  } else {
+    error = 1e-6;
+    std::snprintf(buffer, sizeof buffer, "%s: no stated error; rounding 1e-6", name.c_str());
+  }
+  if (basis) *basis = buffer;
+  return error;
+}
+
+namespace {
+
+// Why entry (i, j) of a row that sums above 1 is as large as it is. Looks for another entry k of
+// the same row whose element lies on (coplanar overlap) or just above/below j's (stacked): both
+// then receive i's light where one surface hides the other. Otherwise, with F^u known, a partly
+// occluded pair, and else a near or a plain unoccluded pair.
+std::string classify(const FormFactorMatrix& m, const Mesh& mesh, double diagonal, size_t i,
+                     size_t j, double f, double fu, std::string& kind) {
+  const Vec3 nj = mesh.normal[j], cj = mesh.centroid[j];
+  const double distance = glm::distance(mesh.centroid[i], cj);
+  std::vector<Vec3> corners_j, corners_k;
+  mesh.corners(j, corners_j);
+  double best_gap = 1e300;
+  size_t best = size_t(-1);
+  double best_shared = 0.0;
+  for (size_t k = 0; k < m.size(); ++k) {
+    if (k == j || k == i || m.at(i, k) <= 0.0) continue;
+    if (glm::dot(mesh.normal[k], nj) < 1.0 - 1e-6) continue;
+    const double gap = std::abs(glm::dot(mesh.centroid[k] - cj, nj));
+    if (gap > 0.01 * distance || gap >= best_gap) continue;
+    mesh.corners(k, corners_k);
+    const double shared = geometry::overlap_area(corners_j, corners_k);
+    if (!(shared > 1e-3 * std::min(mesh.area[j], mesh.area[k]))) continue;
+    best_gap = gap, best = k, best_shared = shared;
+  }
+  char buffer[300];
+  if (best != size_t(-1)) {
+    const double share = best_shared / mesh.area[j];
+    // Closer than kCoincidentTolerance the loader merges the two (scene/overlap.h);
+    // farther, the rays of the pair should see the stacked surface (visibility.cpp ends them within
+    // a few float roundings of j), so a row still above 1 points at the estimate of V.
+    if (best_gap <= kCoincidentTolerance * diagonal) {
+      kind = "coplanar overlap";
+      std::snprintf(buffer, sizeof buffer,
+                    "coplanar overlap: %.0f%% of it coincides with element %zu (F %.4g), the same "
+                    "surface twice",
+                    100 * share, best, m.at(i, best));
+    } else {
+      kind = "stacked";
+      std::snprintf(buffer, sizeof buffer,
+                    "stacked: element %zu (F %.4g) lies %.3g m from it over %.0f%% of it, facing "
+                    "the same way (%.3g of the pair's distance)",
+                    best, m.at(i, best), best_gap, 100 * share, best_gap / distance);
+    }
+    return buffer;
+  }
+  if (fu >= 0 && f < fu * (1 - 1e-6)) {
+    kind = "partly occluded";
+    std::snprintf(buffer, sizeof buffer,
+                  "partly occluded: F^u %.4g, visible fraction %.3f (equal-weight rays)", fu,
+                  f / fu);
+    return buffer;
+  }
+  double ri = 0, rj = 0;
+  for (uint32_t v : mesh.element_vertices(i))
+    ri = std::max(ri, glm::distance(mesh.vertices[v], mesh.centroid[i]));
+  for (uint32_t v : mesh.element_vertices(j))
+    rj = std::max(rj, glm::distance(mesh.vertices[v], cj));
+  if (distance < ri + rj) {
+    kind = "near pair";
+    std::snprintf(buffer, sizeof buffer,
+                  "near or touching pair (centroids %.3g m apart, radii %.3g + %.3g)%s", distance,
+                  ri, rj, fu >= 0 ? ", unoccluded" : "");
+    return buffer;
+  }
+  kind = fu >= 0 ? "unoccluded" : "unclassified";
+  return fu >= 0 ? "unoccluded, nothing stacked on it"
+                 : "no stacked or coplanar partner in the row";
+}
+
+}  // namespace
+
+RowSumCheck check_row_sums(const FormFactorMatrix& m, const Scene& scene, const Mesh& mesh,
+                           double stated_error,
+                           const std::function<double(size_t, size_t)>& unoccluded,
+                           size_t worst_rows, size_t entries_per_row,
+                           const std::function<double(size_t)>& row_allowance) {
+  (void)scene;
+  RowSumCheck check;
+  check.stated_error = stated_error;
+  check.per_row = bool(row_allowance);
+  const size_t n = m.size();
+  std::vector<double> sums(n, 0.0);
+  for (size_t i = 0; i < n; ++i)
+    sums[i] = m.visit_row(i, [&](const auto* row) {
+      double s = 0.0;
+      for (size_t j = 0; j < n; ++j) s += double(row[j]);
+      return s;
+    });
+  check.row_sum_min = n ? *std::min_element(sums.begin(), sums.end()) : 0.0;
+  check.row_sum_max = n ? *std::max_element(sums.begin(), sums.end()) : 0.0;
+  std::vector<size_t> above;
+  std::vector<double> allowance(row_allowance ? n : 0, 0.0);
+  for (size_t i = 0; i < n; ++i)
+    if (sums[i] > 1.0 + stated_error) {
+      if (row_allowance) allowance[i] = row_allowance(i);  // only here: it may cost a row
+      if (sums[i] > 1.0 + stated_error + (row_allowance ? allowance[i] : 0.0)) above.push_back(i);
+    }
+  check.rows_above = above.size();
+  if (above.empty()) return check;
+  std::sort(above.begin(), above.end(), [&](size_t a, size_t b) { return sums[a] > sums[b]; });
+  Vec3 lo(1e300), hi(-1e300);
+  for (const Vec3& v : mesh.vertices) lo = glm::min(lo, v), hi = glm::max(hi, v);
+  const double diagonal = glm::length(hi - lo);
+  // Every row above is classified by its largest entries (for the tally); the worst are kept in
+  // full. Capped at 2,000 rows so that a badly broken large scene still answers in seconds.
+  std::map<std::string, size_t> tally;
+  const size_t classified = std::min<size_t>(above.size(), 2000);
+  for (size_t r = 0; r < classified; ++r) {
+    const size_t i = above[r];
+    std::vector<std::pair<double, size_t>> largest;
+    for (size_t j = 0; j < n; ++j)
+      if (double f = m.at(i, j); f > 0) largest.emplace_back(f, j);
+    const size_t keep = std::min(entries_per_row, largest.size());
+    std::partial_sort(largest.begin(), largest.begin() + long(keep), largest.end(),
+                      [](const auto& a, const auto& b) { return a.first > b.first; });
+    RowSumCheck::Row row{i, sums[i], row_allowance ? allowance[i] : 0.0, {}};
+    for (size_t e = 0; e < keep; ++e) {
+      const auto [f, j] = largest[e];
+      const double fu = unoccluded ? unoccluded(i, j) : -1.0;
+      std::string kind;
+      std::string cause = classify(m, mesh, diagonal, i, j, f, fu, kind);
+      ++tally[kind];
+      row.entries.push_back({j, f, fu, std::move(cause)});
+    }
+    if (check.worst.size() < worst_rows) check.worst.push_back(std::move(row));
+  }
+  for (auto& [kind, count] : tally) check.tally.emplace_back(kind, count);
+  std::sort(check.tally.begin(), check.tally.end(),
+            [](const auto& a, const auto& b) { return a.second > b.second; });
+  return check;
+}
+
+RowSumCheck check_row_sums(const FormFactorMatrix& matrix, const Scene& scene, const Mesh& mesh,
+                           const FormFactorMethod& method) {
+  const auto* raycast = dynamic_cast<const RaycastFormFactors*>(&method);
+  if (!raycast) return check_row_sums(matrix, scene, mesh, stated_row_sum_error(method));
+  const double tolerance = parameter(method.parameters(), "tolerance", 1e-4);
+  return check_row_sums(
+      matrix, scene, mesh, tolerance + 1e-7,
+      [raycast](size_t i, size_t j) { return raycast->unoccluded_pair(i, j); }, 5, 4,
+      [raycast](size_t i) {
+        return kRowSamplingSigmas * raycast->row_sampling_error(i) +
+               raycast->row_quadrature_excess(i);
+      });
+}
+
+std::string RowSumCheck::headline() const {
+  char buffer[300];
+  std::snprintf(
+      buffer, sizeof buffer,
+      "row sums of F [%.6g, %.6g]; %zu row%s above 1 + %.3g%s (the method's stated error)",
+      row_sum_min, row_sum_max, rows_above, rows_above == 1 ? "" : "s", stated_error,
+      per_row ? " + the row's visibility and quadrature allowance" : "");
+  std::string out = buffer;
+  if (!tally.empty()) {
+    out += "; largest entries of those rows:";
+    for (size_t k = 0; k < tally.size(); ++k)
+      out += (k ? ", " : " ") + std::to_string(tally[k].second) + " " + tally[k].first;
+  }
+  return out;
+}
+
+std::string RowSumCheck::report(const Scene& scene, const Mesh& mesh) const {
+  std::string out = headline();
+  auto polygon = [&](size_t e) {
+    const Polygon& p = scene.polygons[mesh.polygon[e]];
+    return "element " + std::to_string(e) + " of " + p.origin + " ('" +
+           scene.materials[size_t(p.material)].name + "')";
+  };
+  char buffer[160];
+  for (const Row& row : worst) {
+    if (per_row)
+      std::snprintf(buffer, sizeof buffer, "\n  row sum %.6g (limit 1 + %.3g + %.3g): ", row.sum,
+                    stated_error, row.allowance);
+    else
+      std::snprintf(buffer, sizeof buffer, "\n  row sum %.6g: ", row.sum);
+    out += buffer + polygon(row.i);
+    for (const Entry& e : row.entries) {
+      std::snprintf(buffer, sizeof buffer, "\n    F %.4g to ", e.f);
+      out += buffer + polygon(e.j) + ": " + e.cause;
+    }
+  }
+  return out;
+}
+
+double emitted_power_ratio(const FormFactorMatrix& m, const Scene& scene, const Mesh& mesh) {
+  const size_t n = m.size();
+  std::vector<std::pair<size_t, double>> emitters;  // element, E summed over channels
+  for (size_t e = 0; e < n; ++e) {
+    const Rgb& E = scene.materials[size_t(scene.polygons[mesh.polygon[e]].material)].emission;
+    if (E.x + E.y + E.z > 0) emitters.emplace_back(e, E.x + E.y + E.z);
+  }
+  if (emitters.empty()) return 1.0;
+  double sent = 0.0, gathered = 0.0;
+  for (const auto& [j, E] : emitters) {
+    double row = 0.0;
+    for (size_t i = 0; i < n; ++i) row += m.at(j, i);
+    sent += E * mesh.area[j] * row;
+  }
+  for (size_t i = 0; i < n; ++i)
+    for (const auto& [j, E] : emitters) gathered += E * mesh.area[i] * m.at(i, j);
+  return sent > 0 ? gathered / sent : (gathered > 0 ? 1e300 : 1.0);
+}
+
+}  // namespace radlab

@@ -1,0 +1,92 @@
+// On-disk cache of dense form-factor matrices (DESIGN §3), so a matrix is built once and reused
+// by every later command on the same mesh, method and parameters.
+//
+// Key: a 128-bit hash of the exact bytes of the mesh (vertex coordinates, element corner
+// indices and offsets, element-to-polygon map), the method's name, its canonical parameters,
+// the stored precision and the file format version. The key's readable text is stored in the
+// file too and compared on load, so even a hash collision cannot hand back the wrong matrix.
+//
+// File `<dir>/<32 hex digits>.ffm`:
+//   header  magic "RADLABFF", format version, byte-order mark, n, precision, key hash, key text
+//           length, payload bytes, payload checksum (64-bit), the cost of the original build
+//           (BuildReport), header checksum
+//   key text, then the payload, native byte order: dense, n*n floats or doubles, row-major;
+//   sparse (precision field + 256), per row two uint32 (its run count, 2^32-1 for a whole row,
+//   and its value count), then each row's runs and values (formfactor/matrix/matrix.h), the
+//   checksum chained over the pieces. A load validates counts, sizes and runs before anything is
+//   used.
+// A file that is truncated, has the wrong size, a different version or byte order, a different
+// key, or a checksum mismatch is reported (log::warning), deleted and rebuilt; it is never
+// trusted. Files are written to a temporary name in the same folder, synced to disk and renamed
+// into place, so readers see either the old file, the new one, or none. A per-key lock file
+// (`<32 hex digits>.lock`, flock) lets concurrent processes build one matrix once: the first
+// builds, the others wait, then load it. Temporaries left by a killed writer
+// (`*.tmp.<pid>.<n>`) are removed by later stores once their process is gone and they are over
+// a minute old, or once they are a day old (core/output_file.h).
+//
+// Folder: `$RADLAB_CACHE_DIR` if set, else `$XDG_CACHE_HOME/radlab`, else `~/.cache/radlab`.
+// Nothing evicts old files: delete the folder to reclaim the space.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include "core/file_lock.h"
+#include "formfactor/matrix/matrix.h"
+
+namespace radlab {
+
+// 64-bit hash of a byte range (not cryptographic; four independent lanes of a SplitMix64-style
+// mixer, then folded). Different seeds give independent hashes.
+uint64_t hash_bytes(const void* data, size_t size, uint64_t seed);
+
+struct MatrixCacheKey {
+  std::array<uint64_t, 2> hash{};
+  std::string
+      text;  // "format=...;code=...;method=...;parameters=...;precision=...;elements=...;mesh=..."
+  std::string file_name() const;  // 32 hex digits + ".ffm"
+};
+
+// A hash of the form-factor and scene sources this binary was built from (cmake/SourceHash.cmake);
+// part of every key, so a fix to a method never meets a matrix its old code computed.
+const char* formfactor_code_version();
+
+MatrixCacheKey matrix_cache_key(const Mesh& mesh, const std::string& method,
+                                const std::string& parameters, Precision precision);
+
+// $RADLAB_CACHE_DIR, else $XDG_CACHE_HOME/radlab, else $HOME/.cache/radlab; empty when none of
+// these is set (then nothing is cached).
+std::filesystem::path default_cache_dir();
+
+class MatrixCache {
+ public:
+  // 2: the sparse layout (FormFactorMatrix::sparse()) is stored as such.
+  static constexpr uint32_t kFormatVersion = 2;
+
+  explicit MatrixCache(std::filesystem::path folder) : folder_(std::move(folder)) {}
+  const std::filesystem::path& folder() const { return folder_; }
+  std::filesystem::path path(const MatrixCacheKey& key) const { return folder_ / key.file_name(); }
+
+  // The matrix stored under `key`, with the cost of its original build in `report` (if given;
+  // report->cached is set). A missing file returns nullopt quietly; a bad file is reported,
+  // deleted, and nullopt returned.
+  std::optional<FormFactorMatrix> load(const MatrixCacheKey& key, BuildReport* report) const;
+
+  // Blocks while another process holds the lock of `key`, then holds it: take it after a miss,
+  // load again (the other process may have stored it meanwhile), build, store, release.
+  // nullptr when the folder cannot hold a lock file (then nothing is locked).
+  std::unique_ptr<FileLock> lock(const MatrixCacheKey& key) const;
+
+  // Stores atomically (temporary, fsync, rename), first removing stale temporaries. Failures
+  // (unwritable folder, full disk) are warnings; returns success.
+  bool store(const MatrixCacheKey& key, const FormFactorMatrix& matrix,
+             const BuildReport& report) const;
+
+ private:
+  std::filesystem::path folder_;
+};
+
+}  // namespace radlab

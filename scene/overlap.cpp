@@ -1,0 +1,258 @@
+#include "scene/overlap.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+#include <unordered_map>
+
+#include "scene/geometry.h"
+
+namespace radlab {
+namespace geometry {
+namespace {
+
+// b's corners projected onto a's plane, wound counter-clockwise about a's normal.
+std::vector<Vec3> project_onto(const std::vector<Vec3>& b, const Vec3& n, const Vec3& origin) {
+  std::vector<Vec3> out;
+  out.reserve(b.size());
+  for (const Vec3& p : b) out.push_back(p - glm::dot(p - origin, n) * n);
+  if (glm::dot(newell_vector(out), n) < 0) std::reverse(out.begin(), out.end());
+  return out;
+}
+
+// Drops consecutive corners closer than 1e-12 of the polygon's size (clipping through a corner
+// repeats it).
+void tidy(std::vector<Vec3>& v) {
+  if (v.size() < 2) return;
+  const double scale = diameter(v);
+  std::vector<Vec3> out;
+  for (const Vec3& p : v)
+    if (out.empty() || glm::distance(out.back(), p) > 1e-12 * scale) out.push_back(p);
+  while (out.size() > 1 && glm::distance(out.front(), out.back()) <= 1e-12 * scale) out.pop_back();
+  v = std::move(out);
+}
+
+}  // namespace
+
+double overlap_area(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+  const Vec3 n = unit_normal(a);
+  const std::vector<Vec3> q = project_onto(b, n, a[0]);
+  std::vector<Vec3> part = a, next;
+  for (size_t k = 0; k < q.size() && part.size() >= 3; ++k) {
+    const Vec3 inward = glm::cross(n, q[(k + 1) % q.size()] - q[k]);
+    clip_to_halfspace(part, q[k], inward, next);
+    part.swap(next);
+  }
+  return part.size() >= 3 ? area(part) : 0.0;
+}
+
+std::vector<std::vector<Vec3>> subtract_convex(const std::vector<Vec3>& a,
+                                               const std::vector<Vec3>& b) {
+  const Vec3 n = unit_normal(a);
+  const std::vector<Vec3> q = project_onto(b, n, a[0]);
+  const double tiny = 1e-9 * area(a);
+  std::vector<std::vector<Vec3>> pieces;
+  std::vector<Vec3> rest = a, outside, inside;
+  // Outside edge k of b and inside edges 0..k-1: disjoint convex pieces whose union is a - b.
+  for (size_t k = 0; k < q.size() && rest.size() >= 3; ++k) {
+    const Vec3 inward = glm::cross(n, q[(k + 1) % q.size()] - q[k]);
+    clip_to_halfspace(rest, q[k], -inward, outside);
+    tidy(outside);
+    if (outside.size() >= 3 && area(outside) > tiny) pieces.push_back(outside);
+    clip_to_halfspace(rest, q[k], inward, inside);
+    rest.swap(inside);
+  }
+  if (rest.size() < 3) {  // b does not reach into a: a is untouched
+    pieces.assign(1, a);
+  }
+  return pieces;
+}
+
+}  // namespace geometry
+
+namespace {
+
+struct Plane {
+  Vec3 normal;  // unit, facing as the polygon
+  double offset = 0.0;
+};
+
+struct BucketKey {
+  int64_t nx, ny, nz, d;
+  bool operator==(const BucketKey&) const = default;
+};
+struct BucketHash {
+  size_t operator()(const BucketKey& k) const {
+    uint64_t h = 1469598103934665603ull;
+    for (int64_t v : {k.nx, k.ny, k.nz, k.d}) h = (h ^ uint64_t(v)) * 1099511628211ull;
+    return size_t(h);
+  }
+};
+
+// Each convex piece minus the convex polygon `b`, as convex pieces.
+void subtract_from_each(std::vector<std::vector<Vec3>>& pieces, const std::vector<Vec3>& b) {
+  std::vector<std::vector<Vec3>> next;
+  for (const auto& piece : pieces)
+    for (auto& part : geometry::subtract_convex(piece, b)) next.push_back(std::move(part));
+  pieces = std::move(next);
+}
+
+std::string describe(const Scene& scene, const Polygon& p) {
+  return p.origin + " ('" + scene.materials[size_t(p.material)].name + "')";
+}
+
+}  // namespace
+
+OverlapReport resolve_coincident_polygons(Scene& scene, bool keep) {
+  OverlapReport report;
+  Vec3 lo(1e300), hi(-1e300);
+  for (const Polygon& p : scene.polygons)
+    for (const Vec3& v : p.vertices) lo = glm::min(lo, v), hi = glm::max(hi, v);
+  const double diagonal = glm::length(hi - lo);
+  if (!(diagonal > 0)) return report;
+  const double tolerance = kCoincidentTolerance * diagonal;
+  // Buckets: the undirected normal quantised to 1e-3 and the offset to 1e-4 of the diagonal;
+  // coincident polygons land in the same or a neighbouring bucket.
+  const double normal_step = 1e-3, offset_step = 1e-4 * diagonal;
+  std::unordered_map<BucketKey, std::vector<uint32_t>, BucketHash> buckets;
+  auto key_of = [&](const Plane& plane) {
+    Vec3 n = plane.normal;
+    double d = plane.offset;
+    // Undirected: the largest component positive, so back-to-back polygons share buckets.
+    const int axis = std::abs(n.x) >= std::abs(n.y) && std::abs(n.x) >= std::abs(n.z)
+                         ? 0
+                         : (std::abs(n.y) >= std::abs(n.z) ? 1 : 2);
+    if (n[axis] < 0) n = -n, d = -d;
+    return BucketKey{int64_t(std::floor(n.x / normal_step)), int64_t(std::floor(n.y / normal_step)),
+                     int64_t(std::floor(n.z / normal_step)), int64_t(std::floor(d / offset_step))};
+  };
+
+  std::vector<Polygon> out;
+  std::vector<Plane> planes;
+  // Earlier polygons (indices into out) and the later polygons in contact with them.
+  std::unordered_map<uint32_t, std::vector<std::vector<Vec3>>> contact_cuts;
+  out.reserve(scene.polygons.size());
+  auto coincident = [&](const Polygon& a, const Plane& pa, const Polygon& b, const Plane& pb) {
+    if (std::abs(glm::dot(pa.normal, pb.normal)) < 1.0 - 1e-9) return false;
+    for (const Vec3& v : b.vertices)
+      if (std::abs(glm::dot(v, pa.normal) - pa.offset) > tolerance) return false;
+    for (const Vec3& v : a.vertices)
+      if (std::abs(glm::dot(v, pb.normal) - pb.offset) > tolerance) return false;
+    return true;
+  };
+  char buffer[160];
+  for (Polygon& polygon : scene.polygons) {
+    const Vec3 n = geometry::unit_normal(polygon.vertices);
+    const Plane plane{n, glm::dot(n, geometry::centroid(polygon.vertices))};
+    const BucketKey key = key_of(plane);
+    const double own_area = geometry::area(polygon.vertices);
+    std::vector<std::vector<Vec3>> pieces{polygon.vertices};
+    bool cut = false;
+    for (int64_t dx = -1; dx <= 1; ++dx)
+      for (int64_t dy = -1; dy <= 1; ++dy)
+        for (int64_t dz = -1; dz <= 1; ++dz)
+          for (int64_t dd = -1; dd <= 1; ++dd) {
+            auto found = buckets.find({key.nx + dx, key.ny + dy, key.nz + dz, key.d + dd});
+            if (found == buckets.end()) continue;
+            for (uint32_t e : found->second) {
+              const Polygon& earlier = out[e];
+              if (!coincident(earlier, planes[e], polygon, plane)) continue;
+              const double shared = geometry::overlap_area(earlier.vertices, polygon.vertices);
+              if (!(shared > 1e-6 * std::min(own_area, geometry::area(earlier.vertices))))
+                continue;  // touching along an edge or at a corner
+              const bool same = glm::dot(planes[e].normal, plane.normal) > 0;
+              std::snprintf(buffer, sizeof buffer, " overlap by %.4g m^2 (%.3g%% of the later)",
+                            shared, 100.0 * shared / own_area);
+              // Opposite normals: the later polygon's distance in front of the earlier one
+              // decides. In front (face to face, each in front of the other) by more than
+              // rounding: a contact, such as a window frame resting on a sill; behind: a
+              // two-sided sheet; within rounding of each other the two cannot be told apart and
+              // the pair is kept as a sheet.
+              const double gap = glm::dot(
+                  geometry::centroid(polygon.vertices) - geometry::centroid(earlier.vertices),
+                  planes[e].normal);
+              const bool contact = !same && gap > kContactGap * diagonal;
+              if (!same)
+                std::snprintf(buffer + std::strlen(buffer), sizeof buffer - std::strlen(buffer),
+                              ", %.3g m apart", gap);
+              std::string what = describe(scene, earlier) + " and " + describe(scene, polygon) +
+                                 ": coincident " +
+                                 (same      ? "same-facing"
+                                  : contact ? "face-to-face"
+                                            : "back-to-back") +
+                                 " polygons" + buffer;
+              if (!same && !contact) {
+                ++report.back_to_back;
+                report.warnings.push_back(what + (gap > 0 ? "; kept (within rounding: a two-sided "
+                                                            "sheet or a contact)"
+                                                          : "; kept (a two-sided sheet)"));
+                continue;
+              }
+              if (contact) {
+                ++report.contacts;
+                report.contact_area += shared;
+                if (keep) {
+                  report.warnings.push_back(what + "; kept as they are (--keep-overlaps)");
+                  continue;
+                }
+                // Neither side of a contact sees anything but the other: light neither reaches
+                // it nor leaves it, and the rays cannot resolve a gap this small (they would see
+                // past the other polygon). Both lose the overlap; the earlier one below, once
+                // every polygon is placed.
+                contact_cuts[e].push_back(polygon.vertices);
+                subtract_from_each(pieces, earlier.vertices);
+                cut = true;
+                report.warnings.push_back(what + "; a contact: the overlap removed from both");
+                continue;
+              }
+              ++report.same_facing;
+              report.overlap_area += shared;
+              if (keep) {
+                report.warnings.push_back(what + "; kept as they are (--keep-overlaps)");
+                continue;
+              }
+              subtract_from_each(pieces, earlier.vertices);
+              cut = true;
+              report.warnings.push_back(what + (pieces.empty()
+                                                    ? "; the later one dropped (wholly covered)"
+                                                    : "; the later one cut to the " +
+                                                          std::to_string(pieces.size()) +
+                                                          " convex piece(s) outside the earlier"));
+            }
+          }
+    if (pieces.empty()) {
+      ++report.dropped;
+      continue;
+    }
+    if (cut) ++report.clipped;
+    for (auto& piece : pieces) {
+      buckets[key].push_back(uint32_t(out.size()));
+      planes.push_back(plane);
+      out.push_back(Polygon{std::move(piece), polygon.material, polygon.origin});
+    }
+  }
+  if (!contact_cuts.empty()) {
+    std::vector<Polygon> cut_out;
+    cut_out.reserve(out.size());
+    for (uint32_t e = 0; e < out.size(); ++e) {
+      const auto found = contact_cuts.find(e);
+      if (found == contact_cuts.end()) {
+        cut_out.push_back(std::move(out[e]));
+        continue;
+      }
+      std::vector<std::vector<Vec3>> pieces{out[e].vertices};
+      for (const std::vector<Vec3>& later : found->second) subtract_from_each(pieces, later);
+      ++(pieces.empty() ? report.dropped : report.clipped);
+      for (auto& piece : pieces)
+        cut_out.push_back(Polygon{std::move(piece), out[e].material, out[e].origin});
+    }
+    out = std::move(cut_out);
+  }
+  scene.polygons = std::move(out);
+  return report;
+}
+
+}  // namespace radlab

@@ -1,0 +1,187 @@
+#include "scene/readers/obj_reader.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+
+#include "core/error.h"
+#include "core/log.h"
+#include "core/text.h"
+
+namespace radlab {
+namespace {
+
+struct LineReader {
+  explicit LineReader(const std::string& file) : path(file) {
+    // Regular files only: /dev/zero would be one endless line.
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(file, ec))
+      throw InputError(file + ": not a regular file");
+    in.open(file);
+    if (!in) throw InputError(file + ": cannot open file");
+  }
+  bool next(std::string& line) {
+    if (!std::getline(in, line)) {
+      // A failed read is not the end of the file.
+      if (in.bad()) throw InputError(path + ":" + std::to_string(number + 1) + ": read error");
+      return false;
+    }
+    ++number;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    return true;
+  }
+  [[noreturn]] void fail(const std::string& message) const {
+    throw InputError(path + ":" + std::to_string(number) + ": " + message);
+  }
+  std::string path;
+  std::ifstream in;
+  int number = 0;
+};
+
+Rgb parse_rgb(const LineReader& reader, const std::vector<std::string_view>& tokens) {
+  // "Kd r g b" or "Kd v" (grey); the "spectral" and "xyz" forms are not supported.
+  if (tokens.size() != 2 && tokens.size() != 4)
+    reader.fail("'" + std::string(tokens[0]) + "' needs 1 or 3 numbers, got " +
+                std::to_string(tokens.size() - 1));
+  Rgb c;
+  for (size_t i = 1; i < tokens.size(); ++i) {
+    auto v = text::parse_double(tokens[i]);
+    if (!v)
+      reader.fail("'" + std::string(tokens[0]) + "': '" + std::string(tokens[i]) +
+                  "' is not a number");
+    c[int(i - 1)] = *v;
+  }
+  if (tokens.size() == 2) c = Rgb(c.x);
+  return c;
+}
+
+// MTL statements other than newmtl, Kd and Ke that renderers write (Wavefront's MTL
+// specification and the PBR extension): read and ignored without a warning.
+bool known_mtl_key(std::string_view key) {
+  static const std::set<std::string_view> known = {
+      "Ka",    "Ks",   "Ns", "Ni", "d",  "Tr", "Tf",  "illum", "sharpness", "bump", "disp",
+      "decal", "refl", "Pr", "Pm", "Ps", "Pc", "Pcr", "aniso", "anisor",    "norm"};
+  return known.count(key) || text::starts_with(key, "map_");
+}
+
+void read_mtl(const std::string& path, Scene& scene, std::map<std::string, int>& by_name) {
+  LineReader reader(path);
+  std::string line;
+  int current = -1;
+  std::set<std::string> warned;
+  while (reader.next(line)) {
+    auto tokens = text::split_whitespace(line);
+    if (tokens.empty() || tokens[0].front() == '#') continue;
+    const std::string_view key = tokens[0];
+    if (key == "newmtl") {
+      if (tokens.size() < 2) reader.fail("'newmtl' needs a name");
+      std::string name(text::trim(std::string_view(line).substr(line.find("newmtl") + 6)));
+      if (by_name.count(name)) reader.fail("material '" + name + "' defined twice");
+      scene.materials.push_back(Material{name, Rgb(0.0), Rgb(0.0)});
+      current = int(scene.materials.size() - 1);
+      by_name[name] = current;
+    } else if (key == "Kd" || key == "Ke") {
+      if (current < 0) reader.fail("'" + std::string(key) + "' before any 'newmtl'");
+      Rgb c = parse_rgb(reader, tokens);
+      Material& m = scene.materials[size_t(current)];
+      (key == "Kd" ? m.reflectance : m.emission) = c;
+      // Range checks happen in validate_scene, which names the material; keep the line here too.
+      if (key == "Kd" && !(c.x >= 0 && c.x <= 1 && c.y >= 0 && c.y <= 1 && c.z >= 0 && c.z <= 1))
+        reader.fail("material '" + m.name + "': Kd (reflectance) must lie in [0,1]");
+      if (key == "Ke" && !(c.x >= 0 && c.y >= 0 && c.z >= 0 && std::isfinite(c.x) &&
+                           std::isfinite(c.y) && std::isfinite(c.z)))
+        reader.fail("material '" + m.name + "': Ke (emission) must be finite and >= 0");
+    } else if (!known_mtl_key(key) && warned.insert(std::string(key)).second) {
+      // Everything else known (Ka, Ks, Ns, Ni, d, Tr, illum, map_*, ...) does not affect
+      // diffuse radiosity. An unknown key is most likely a misspelling (MTL keys are
+      // case-sensitive: `kd` is not `Kd`, and a material without Kd is black): named, once per
+      // key and file.
+      log::warning(path + ":" + std::to_string(reader.number) + ": unknown MTL statement '" +
+                   std::string(key).substr(0, 24) +
+                   "' ignored (keys are case-sensitive; radlab reads Kd and Ke)");
+    }
+  }
+}
+
+}  // namespace
+
+Scene read_obj(const std::string& path) {
+  LineReader reader(path);
+  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+  Scene scene;
+  scene.name = path;
+  std::map<std::string, int> by_name;
+  std::vector<Vec3> positions;
+  int current = -1;
+  int default_material = -1;
+  std::string line;
+  static const std::set<std::string_view> ignored = {"vt", "vn", "vp", "o",      "g",  "s",
+                                                     "l",  "p",  "mg", "cstype", "deg"};
+  while (reader.next(line)) {
+    auto tokens = text::split_whitespace(line);
+    if (tokens.empty() || tokens[0].front() == '#') continue;
+    const std::string_view key = tokens[0];
+    if (key == "v") {
+      if (tokens.size() < 4 || tokens.size() > 5) reader.fail("'v' needs 3 coordinates");
+      Vec3 p;
+      for (int i = 0; i < 3; ++i) {
+        auto v = text::parse_double(tokens[size_t(i + 1)]);
+        if (!v || !std::isfinite(*v))
+          reader.fail("'v': '" + std::string(tokens[size_t(i + 1)]) + "' is not a finite number");
+        p[i] = *v;
+      }
+      positions.push_back(p);
+    } else if (key == "f") {
+      if (tokens.size() < 4) reader.fail("'f' needs at least 3 vertices");
+      Polygon polygon;
+      for (size_t i = 1; i < tokens.size(); ++i) {
+        std::string_view ref = tokens[i].substr(0, tokens[i].find('/'));
+        auto index = text::parse_int(ref);
+        if (!index || *index == 0)
+          reader.fail("'f': '" + std::string(tokens[i]) + "' is not a vertex reference");
+        const auto count = static_cast<long long>(positions.size());
+        long long k = *index > 0 ? *index - 1 : count + *index;
+        if (k < 0 || k >= count)
+          reader.fail("'f': vertex " + std::to_string(*index) + " does not exist (" +
+                      std::to_string(positions.size()) + " vertices so far)");
+        polygon.vertices.push_back(positions[size_t(k)]);
+      }
+      if (current < 0) {
+        if (default_material < 0) {
+          scene.materials.push_back(Material{"(default)", Rgb(0.5), Rgb(0.0)});
+          default_material = int(scene.materials.size() - 1);
+          log::warning(path + ":" + std::to_string(reader.number) +
+                       ": face without 'usemtl': using a grey reflectance 0.5, no emission");
+        }
+        current = default_material;
+      }
+      polygon.material = current;
+      polygon.origin = path + ":" + std::to_string(reader.number);
+      scene.polygons.push_back(std::move(polygon));
+    } else if (key == "usemtl") {
+      if (tokens.size() < 2) reader.fail("'usemtl' needs a material name");
+      std::string name(text::trim(std::string_view(line).substr(line.find("usemtl") + 6)));
+      auto it = by_name.find(name);
+      if (it == by_name.end())
+        reader.fail("'usemtl': material '" + name + "' is not defined by any 'mtllib' before it");
+      current = it->second;
+    } else if (key == "mtllib") {
+      if (tokens.size() < 2) reader.fail("'mtllib' needs a file name");
+      for (size_t i = 1; i < tokens.size(); ++i) {
+        std::filesystem::path lib = folder / std::string(tokens[i]);
+        if (!std::filesystem::is_regular_file(lib))
+          reader.fail("'mtllib': material library '" + lib.string() +
+                      "' not found (or not a regular file)");
+        read_mtl(lib.string(), scene, by_name);
+      }
+    } else if (!ignored.count(key)) {
+      reader.fail("unknown statement '" + std::string(key).substr(0, 24) + "'");
+    }
+  }
+  if (scene.polygons.empty()) throw InputError(path + ": no faces ('f' lines) in the file");
+  return scene;
+}
+
+}  // namespace radlab

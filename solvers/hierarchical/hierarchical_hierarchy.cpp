@@ -1,0 +1,264 @@
+#include "solvers/hierarchical/hierarchical_hierarchy.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <glm/common.hpp>
+#include <unordered_set>
+
+namespace radlab::hier {
+
+Rgb Hierarchy::radiosity(const NodeKey& k) const {
+  NodeKey at = k;
+  for (;;) {
+    auto it = index.find(at);
+    if (it != index.end()) {
+      const size_t i = it->second;
+      if (channels == 1) return Rgb(b(0, i));
+      return {b(0, i), b(1, i), b(2, i)};
+    }
+    if (at.depth == 0) return Rgb(0.0);
+    at = at.parent();
+  }
+}
+
+size_t Hierarchy::memory_bytes() const {
+  const size_t per_node = sizeof(NodeKey) + sizeof(int32_t) + sizeof(std::array<int32_t, 4>) +
+                          sizeof(double) + 4 * sizeof(double) * size_t(channels) +
+                          sizeof(uint64_t) +
+                          // the key index: a node, its key and a bucket pointer
+                          sizeof(NodeKey) + sizeof(uint32_t) + 2 * sizeof(void*);
+  return size() * (per_node + sizeof(double)) +
+         source.size() * (sizeof(uint32_t) + sizeof(double) + sizeof(uint8_t));
+}
+
+Hierarchy build_hierarchy(const std::vector<Chart>& charts, const std::vector<LinkRecord>& links,
+                          const Hierarchy* previous, const std::vector<Rgb>& chart_emission,
+                          const std::vector<Rgb>& chart_reflectance, int channels) {
+  Hierarchy h;
+  h.channels = channels;
+  std::unordered_set<NodeKey, NodeKeyHash> set;
+  set.reserve(charts.size() + 2 * links.size());
+  for (uint32_t c = 0; c < charts.size(); ++c) set.insert({c, 0, 0});
+  std::vector<NodeKey> pending;
+  auto add_with_ancestors = [&](NodeKey k) {
+    while (set.insert(k).second && k.depth > 0) k = k.parent();
+  };
+  for (const LinkRecord& l : links) {
+    add_with_ancestors(l.p);
+    add_with_ancestors(l.q);
+  }
+  // Every interior node gets all its children (the leaves must cover each chart).
+  pending.assign(set.begin(), set.end());
+  for (const NodeKey& k : pending)
+    if (k.depth > 0) {
+      const NodeKey parent = k.parent();
+      for (int d = 0; d < 4; ++d) set.insert(parent.child(d));
+    }
+  h.key.assign(set.begin(), set.end());
+  std::sort(h.key.begin(), h.key.end(), dfs_less);
+  const size_t n = h.key.size();
+  h.index.reserve(n);
+  for (size_t i = 0; i < n; ++i) h.index.emplace(h.key[i], uint32_t(i));
+  h.parent.assign(n, -1);
+  h.child.assign(n, {-1, -1, -1, -1});
+  h.chart_first.assign(charts.size() + 1, uint32_t(n));
+  for (size_t i = n; i-- > 0;) h.chart_first[h.key[i].chart] = uint32_t(i);
+  h.area.resize(n);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 512),
+                    [&](const tbb::blocked_range<size_t>& r) {
+                      for (size_t i = r.begin(); i < r.end(); ++i)
+                        h.area[i] = node_geometry(charts, h.key[i]).area;
+                    });
+  for (size_t i = 0; i < n; ++i) {
+    const NodeKey& k = h.key[i];
+    if (k.depth == 0) continue;
+    const uint32_t p = h.index.at(k.parent());
+    h.parent[i] = int32_t(p);
+    h.child[p][size_t(k.digit(k.depth))] = int32_t(i);
+  }
+  h.leaves = 0;
+  for (size_t i = 0; i < n; ++i) h.leaves += h.is_leaf(i) ? 1 : 0;
+
+  const size_t C = size_t(channels);
+  h.B.assign(C * n, 0.0);
+  h.gathered.assign(C * n, 0.0);
+  h.emission.assign(C * n, 0.0);
+  h.reflectance.assign(C * n, 0.0);
+  for (size_t i = 0; i < n; ++i) {
+    const uint32_t chart = h.key[i].chart;
+    const Rgb b = previous ? previous->radiosity(h.key[i]) : chart_emission[chart];
+    for (size_t c = 0; c < C; ++c) {
+      h.emission[c * n + i] = chart_emission[chart][int(c)];
+      h.reflectance[c * n + i] = chart_reflectance[chart][int(c)];
+      h.B[c * n + i] = b[int(c)];
+    }
+  }
+
+  // Links per receiver, in link order.
+  h.first.assign(n + 1, 0);
+  std::vector<std::array<uint32_t, 2>> ends(links.size());
+  for (size_t l = 0; l < links.size(); ++l) {
+    ends[l] = {h.index.at(links[l].p), h.index.at(links[l].q)};
+    ++h.first[ends[l][0] + 1];
+    ++h.first[ends[l][1] + 1];
+  }
+  for (size_t i = 0; i < n; ++i) h.first[i + 1] += h.first[i];
+  h.source.resize(2 * links.size());
+  h.factor.resize(2 * links.size());
+  h.free_rays.resize(2 * links.size());
+  h.row_scale.assign(n, 1.0);
+  std::vector<uint64_t> fill(h.first.begin(), h.first.end() - 1);
+  for (size_t l = 0; l < links.size(); ++l) {
+    const auto [p, q] = ends[l];
+    h.source[fill[p]] = q;
+    h.free_rays[fill[p]] = links[l].free_rays;
+    h.factor[fill[p]++] = links[l].fpq;
+    h.source[fill[q]] = p;
+    h.free_rays[fill[q]] = links[l].free_rays;
+    h.factor[fill[q]++] = links[l].fqp;
+  }
+  return h;
+}
+
+namespace {
+
+void gather_range(Hierarchy& h, size_t begin, size_t end) {
+  const size_t n = h.size();
+  tbb::parallel_for(tbb::blocked_range<size_t>(begin, end, 256),
+                    [&](const tbb::blocked_range<size_t>& r) {
+                      for (size_t i = r.begin(); i < r.end(); ++i)
+                        for (int c = 0; c < h.channels; ++c) {
+                          const double* B = h.B.data() + size_t(c) * n;
+                          double sum = 0.0;
+                          for (uint64_t k = h.first[i]; k < h.first[i + 1]; ++k)
+                            sum += h.factor[k] * B[h.source[k]];
+                          h.gathered[size_t(c) * n + i] = sum;
+                        }
+                    });
+}
+
+// PushPull on the subtree at i: `down` is what the ancestors gathered; writes the new B into
+// `out`; returns the largest leaf change against the current B.
+double push_pull(const Hierarchy& h, size_t i, const double* down, std::vector<double>& out) {
+  const size_t n = h.size();
+  double total[3] = {0.0, 0.0, 0.0};
+  for (int c = 0; c < h.channels; ++c) total[c] = down[c] + h.gathered[size_t(c) * n + i];
+  double change = 0.0;
+  if (h.is_leaf(i)) {
+    for (int c = 0; c < h.channels; ++c) {
+      const size_t at = size_t(c) * n + i;
+      out[at] = h.emission[at] + h.reflectance[at] * h.row_scale[i] * total[c];
+      change = std::max(change, std::abs(out[at] - h.B[at]));
+    }
+    return change;
+  }
+  double sum[3] = {0.0, 0.0, 0.0}, area = 0.0;
+  for (int32_t k : h.child[i]) {
+    if (k < 0) continue;
+    change = std::max(change, push_pull(h, size_t(k), total, out));
+    area += h.area[size_t(k)];
+    for (int c = 0; c < h.channels; ++c)
+      sum[c] += h.area[size_t(k)] * out[size_t(c) * n + size_t(k)];
+  }
+  for (int c = 0; c < h.channels; ++c) out[size_t(c) * n + i] = sum[c] / area;
+  return change;
+}
+
+}  // namespace
+
+double jacobi_pass(Hierarchy& h) {
+  gather_range(h, 0, h.size());
+  std::vector<double> next(h.B.size());
+  const size_t charts = h.chart_first.size() - 1;
+  std::vector<double> change(charts, 0.0);
+  const double zero[3] = {0.0, 0.0, 0.0};
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, charts, 16),
+                    [&](const tbb::blocked_range<size_t>& r) {
+                      for (size_t c = r.begin(); c < r.end(); ++c)
+                        change[c] = push_pull(h, h.chart_first[c], zero, next);
+                    });
+  h.B.swap(next);
+  return charts ? *std::max_element(change.begin(), change.end()) : 0.0;
+}
+
+double gauss_seidel_pass(Hierarchy& h) {
+  const size_t charts = h.chart_first.size() - 1;
+  const double zero[3] = {0.0, 0.0, 0.0};
+  double change = 0.0;
+  std::vector<double> next = h.B;
+  for (size_t c = 0; c < charts; ++c) {
+    gather_range(h, h.chart_first[c], h.chart_first[c + 1]);
+    change = std::max(change, push_pull(h, h.chart_first[c], zero, next));
+    // Publish this chart's new values before the next chart gathers.
+    for (int ch = 0; ch < h.channels; ++ch) {
+      const size_t base = size_t(ch) * h.size();
+      std::copy(next.begin() + long(base + h.chart_first[c]),
+                next.begin() + long(base + h.chart_first[c + 1]),
+                h.B.begin() + long(base + h.chart_first[c]));
+    }
+  }
+  return change;
+}
+
+namespace {
+
+struct Box {
+  Vec2 lo{1e300}, hi{-1e300};
+  void add(const Vec2& p) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  bool overlaps(const Box& o) const {
+    return lo.x < o.hi.x && o.lo.x < hi.x && lo.y < o.hi.y && o.lo.y < hi.y;
+  }
+};
+
+void accumulate(const Hierarchy& h, const Chart& chart, size_t i, const NodeGeometry& g,
+                const ElementChart& e, const Box& box, double* sum, double& area) {
+  Box nb;
+  for (int k = 0; k < g.corners; ++k) nb.add(g.uv[k]);
+  if (!nb.overlaps(box)) return;
+  if (h.is_leaf(i)) {
+    const double a = overlap_area(chart, e.uv, e.corners, g.uv, g.corners);
+    if (a <= 0) return;
+    area += a;
+    for (int c = 0; c < h.channels; ++c) sum[c] += a * h.b(c, i);
+    return;
+  }
+  for (int d = 0; d < 4; ++d)
+    if (h.child[i][size_t(d)] >= 0)
+      accumulate(h, chart, size_t(h.child[i][size_t(d)]), g.child(chart, d), e, box, sum, area);
+}
+
+}  // namespace
+
+void project(const Hierarchy& h, const std::vector<Chart>& charts,
+             const std::vector<ElementChart>& elements, Radiosity& out) {
+  tbb::parallel_for(
+      tbb::blocked_range<size_t>(0, elements.size(), 64), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t e = r.begin(); e < r.end(); ++e) {
+          const ElementChart& ec = elements[e];
+          double sum[3] = {0.0, 0.0, 0.0}, area = 0.0;
+          if (ec.whole) {
+            // An unsplit n-gon: the area average of its fan charts' roots.
+            const uint32_t polygon = charts[ec.chart].polygon;
+            for (uint32_t c = ec.chart; c < charts.size() && charts[c].polygon == polygon; ++c) {
+              const size_t root = h.chart_first[c];
+              area += h.area[root];
+              for (int ch = 0; ch < h.channels; ++ch) sum[ch] += h.area[root] * h.b(ch, root);
+            }
+          } else {
+            Box box;
+            for (int k = 0; k < ec.corners; ++k) box.add(ec.uv[k]);
+            const Chart& chart = charts[ec.chart];
+            accumulate(h, chart, h.chart_first[ec.chart], root_geometry(chart), ec, box, sum, area);
+          }
+          for (int ch = 0; ch < h.channels; ++ch) out.at(ch, e) = area > 0 ? sum[ch] / area : 0.0;
+        }
+      });
+}
+
+}  // namespace radlab::hier

@@ -1,0 +1,71 @@
+// The built hierarchy of hierarchical radiosity: the nodes that refinement made (every input
+// chart's quadtree, each interior node with all its children), their radiosities, and the links
+// stored per receiving node for gathering; the Gather and PushPull of Hanrahan, Salzman &
+// Aupperle 1991 (§5.1), and the projection onto the run's element mesh (hierarchical_tree.h).
+//
+// Nodes are numbered in depth-first key order (hierarchical_tree.h), charts contiguous, so the
+// same links give the same numbering, sums in the same order, and the same bits on any number of
+// threads: gathers run in parallel over receiving nodes, push/pull over charts, projection over
+// elements, each writing only its own values.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <unordered_map>
+#include <vector>
+
+#include "core/radiosity.h"
+#include "solvers/hierarchical/hierarchical_refine.h"
+#include "solvers/hierarchical/hierarchical_tree.h"
+
+namespace radlab::hier {
+
+struct Hierarchy {
+  int channels = 1;
+  std::vector<NodeKey> key;
+  std::vector<int32_t> parent;
+  std::vector<std::array<int32_t, 4>> child;  // -1: none (a leaf has none)
+  std::vector<double> area;
+  std::vector<uint32_t> chart_first;  // charts + 1 offsets: nodes of chart c
+  std::unordered_map<NodeKey, uint32_t, NodeKeyHash> index;
+  // Channel-major per-node values: value(c, i) = v[c * size() + i].
+  std::vector<double> B, gathered, emission, reflectance;
+  // Links per receiver (CSR): node i gathers factor[k] * B[source[k]] for k in
+  // [first[i], first[i+1]).
+  std::vector<uint64_t> first;
+  std::vector<uint32_t> source;
+  std::vector<double> factor;
+  std::vector<uint8_t> free_rays;  // per CSR entry: the link's unblocked rays (V = free / 16)
+  // Per node: the factor every leaf applies to what it and its ancestors gathered (1 until
+  // normalise_rows sets it; hierarchical_rows.h).
+  std::vector<double> row_scale;
+  size_t leaves = 0;
+
+  size_t size() const { return key.size(); }
+  bool is_leaf(size_t i) const { return child[i][0] < 0; }
+  double& b(int c, size_t i) { return B[size_t(c) * size() + i]; }
+  double b(int c, size_t i) const { return B[size_t(c) * size() + i]; }
+  // B of the deepest existing node at or above `k` (a node not in the tree has its leaf
+  // ancestor's constant value).
+  Rgb radiosity(const NodeKey& k) const;
+  size_t memory_bytes() const;
+};
+
+// Builds the tree holding every chart root and both ends of every link (with their ancestors
+// and siblings). Radiosities carry over from `previous` (deepest existing ancestor; E where
+// there is none). chart_emission/chart_reflectance: per chart, `channels` values used.
+Hierarchy build_hierarchy(const std::vector<Chart>& charts, const std::vector<LinkRecord>& links,
+                          const Hierarchy* previous, const std::vector<Rgb>& chart_emission,
+                          const std::vector<Rgb>& chart_reflectance, int channels);
+
+// One Jacobi pass: every node gathers from the previous B, then push/pull sets the new B.
+// Returns the largest change of a leaf radiosity (any channel).
+double jacobi_pass(Hierarchy& h);
+// One Gauss–Seidel pass: chart after chart, gather (newest B) then push/pull in place.
+double gauss_seidel_pass(Hierarchy& h);
+
+// The area average of the leaves over every mesh element.
+void project(const Hierarchy& h, const std::vector<Chart>& charts,
+             const std::vector<ElementChart>& elements, Radiosity& out);
+
+}  // namespace radlab::hier

@@ -1,0 +1,50 @@
+// Row normalisation of hierarchical radiosity: what each leaf gathers, per unit radiosity of the
+// scene, made the row sum of one quadrature rule at that leaf (and never above 1).
+//
+// Why: a leaf gathers through the links of every node on its path to the root, each link's
+// factor averaged over that node (a 2 x 2 rule over the node, hierarchical_refine.h), not over
+// the leaf. The link sum S_L = sum over those links of the factor is therefore not the leaf's
+// own row sum: even with exact factors it scatters around it (by about the factors' variation
+// over the receiving nodes), while its area-weighted mean is conserved. With reciprocal factors
+// the gather operator is self-adjoint in the area inner product, so its spectral radius is at
+// least the area-weighted mean of S_L (the Rayleigh quotient of a constant), strictly more when
+// S_L spreads: on a closed box (mean 1) lambda > 1, so rho * lambda > 1 once rho > 1 / lambda
+// and the Jacobi passes diverge (docs/stability.md measured it at rho >= 0.99).
+//
+// What: for every leaf L, T_L = sum over the same links of V_k times the form factor from L to
+// the link's source by the 2 x 2 rule over L itself (the four children's centres, area
+// weighted; Lambert's exact point-to-polygon value at each). All of L's links share the same
+// four points and their sources are disjoint, so T_L is that rule's row sum: exactly 1 (to
+// rounding) in an unoccluded closed box, below 1 wherever light escapes. The leaf then applies
+// row_scale = min(T_L, 1) / S_L to everything it gathers; its row sum is min(T_L, 1) <= 1, so a
+// pass with every rho < 1 contracts in the max norm and the furnace gives E / (1 - rho). Links
+// at the leaf itself use the same rule for their factor, so they contribute equally to S_L and
+// T_L: the correction comes only from the ancestors' links.
+//
+// Cost: one 2 x 2 evaluation (4 point-to-polygon values, batched) per leaf and link on its
+// path above it; no rays (V is the link's). Left out: the leaf's own visibility (a link's V is
+// its nodes' 16-ray fraction) and any correction of interior nodes (only leaves hold B).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "solvers/hierarchical/hierarchical_hierarchy.h"
+#include "solvers/hierarchical/hierarchical_tree.h"
+
+namespace radlab::hier {
+
+struct RowStats {
+  double max_link_sum = 0.0;    // largest S_L before normalisation
+  double min_link_sum = 0.0;    // smallest S_L over leaves that gather anything
+  double max_row = 0.0;         // largest row sum after: max over leaves of min(T_L, 1)
+  size_t leaves_above_one = 0;  // leaves whose S_L exceeded 1
+  double max_change = 0.0;      // largest |row_scale - 1|
+  uint64_t evaluations = 0;     // (leaf, ancestor link) pairs evaluated by the 2 x 2 rule
+  uint64_t nonfinite = 0;       // point values without a defined result (taken as 0)
+};
+
+// Sets h.row_scale for every leaf (1 for interior nodes and leaves that gather nothing).
+RowStats normalise_rows(Hierarchy& h, const std::vector<Chart>& charts);
+
+}  // namespace radlab::hier

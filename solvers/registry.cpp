@@ -1,0 +1,113 @@
+#include "solvers/registry.h"
+
+#include <stdexcept>
+
+#include "core/error.h"
+#include "core/text.h"
+#include "solvers/flat/gathering.h"
+#include "solvers/solver_factories.h"
+
+namespace radlab {
+
+const char* to_string(SolverKind kind) {
+  switch (kind) {
+    case SolverKind::kGathering:
+      return "gathering";
+    case SolverKind::kShooting:
+      return "shooting";
+    case SolverKind::kOther:
+      break;
+  }
+  return "other";
+}
+
+std::map<std::string, std::string> read_parameter_defaults(const SolverInfo& info) {
+  ParamBag bag("solver '" + info.name + "'");
+  info.make(bag);  // reads every key with its fallback; creating a solver does no work yet
+  return bag.defaults();
+}
+
+namespace {
+
+// Fills in the defaults; returns what is wrong ("" when nothing is).
+std::string complete_parameters(SolverInfo& info) {
+  const std::map<std::string, std::string> defaults = read_parameter_defaults(info);
+  std::vector<std::string> problems;
+  for (ParameterInfo& p : info.parameters) {
+    auto it = defaults.find(p.name);
+    if (it == defaults.end())
+      problems.push_back("parameter '" + p.name + "' is listed but its options never read it");
+    else
+      p.default_value = it->second;
+  }
+  for (const auto& [key, value] : defaults) {
+    bool listed = false;
+    for (const ParameterInfo& p : info.parameters) listed = listed || p.name == key;
+    if (!listed) problems.push_back("key '" + key + "' is read but not listed in its parameters");
+  }
+  return text::join(problems, "; ");
+}
+
+std::vector<SolverInfo> builtin_solvers() {
+  std::vector<SolverInfo> table = {
+      jacobi_solver_info(),
+      gauss_seidel_solver_info(),
+      shooting_solver_info(),
+      sorted_shooting_solver_info(),
+      overshooting_solver_info(),
+      interleaved_solver_info(),
+      conjugate_gradient_solver_info(),
+      hierarchical_solver_info(),
+      adaptive_shooting_solver_info(),
+  };
+  for (SolverInfo& info : table) {
+    const std::string problems = complete_parameters(info);
+    // A programming error in radlab itself; tests/solvers/registry_test.cpp would fail first.
+    if (!problems.empty()) throw std::logic_error("solver '" + info.name + "': " + problems);
+  }
+  return table;
+}
+
+std::vector<SolverInfo>& table() {
+  static std::vector<SolverInfo> solvers = builtin_solvers();
+  return solvers;
+}
+
+}  // namespace
+
+const std::vector<SolverInfo>& solver_registry() {
+  return table();
+}
+
+void register_solver(SolverInfo info) {
+  if (info.name.empty()) throw InputError("a solver to register has no name");
+  for (const SolverInfo& existing : table())
+    if (existing.name == info.name)
+      throw InputError("a solver named '" + info.name + "' is registered already");
+  if (!info.make) throw InputError("solver '" + info.name + "' has no make function");
+  std::string problems;
+  try {
+    problems = complete_parameters(info);
+  } catch (const Error& e) {
+    throw InputError("solver '" + info.name + "' cannot be made with its defaults: " + e.what());
+  }
+  if (!problems.empty()) throw InputError("solver '" + info.name + "': " + problems);
+  table().push_back(std::move(info));
+}
+
+const SolverInfo& solver_info(const std::string& name) {
+  for (const SolverInfo& info : solver_registry())
+    if (info.name == name) return info;
+  std::vector<std::string> names;
+  for (const SolverInfo& info : solver_registry()) names.push_back(info.name);
+  throw UsageError("unknown solver '" + name + "'; solvers: " + text::join(names, ", "));
+}
+
+std::unique_ptr<Solver> make_solver(const std::string& name, ParamBag& parameters) {
+  const SolverInfo& info = solver_info(name);
+  std::unique_ptr<Solver> solver = info.make(parameters);
+  parameters.finish();
+  return solver;
+}
+
+}  // namespace radlab
