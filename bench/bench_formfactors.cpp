@@ -389,6 +389,9 @@ class RowsOnly final : public FormFactorMethod {
   void row(size_t i, std::span<double> out, RowCost& cost) const override {
     method_.row(i, out, cost);
   }
+  double stated_row_sum_error(std::string* basis) const override {
+    return method_.stated_row_sum_error(basis);
+  }
 
  private:
   const FormFactorMethod& method_;

@@ -29,6 +29,7 @@
 
 #include "core/random.h"
 #include "formfactor/matrix/parallel_row.h"
+#include "formfactor/registry.h"
 #include "scene/builtin/builtin_scenes.h"
 #include "scene/validate.h"
 #include "solvers/kernels/kernels.h"

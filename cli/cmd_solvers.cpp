@@ -2,7 +2,7 @@
 #include <cstdio>
 
 #include "cli/cli_common.h"
-#include "formfactor/form_factor_method.h"
+#include "formfactor/registry.h"
 #include "solvers/registry.h"
 
 namespace radlab::cli {
@@ -40,8 +40,9 @@ void add_solvers_command(CLI::App& app) {
     std::printf("\nForm-factor methods (--ff NAME [--ff-set key=value]...):\n\n");
     for (const FormFactorMethodInfo& m : form_factor_methods()) {
       std::printf("  %-20s %s\n", m.name.c_str(), m.summary.c_str());
-      for (const auto& [key, help] : m.parameters)
-        std::printf("      %-16s %s\n", key.c_str(), help.c_str());
+      for (const ParameterInfo& p : m.parameters)
+        std::printf("      %-16s default %-8s %s\n", p.name.c_str(), p.default_value.c_str(),
+                    p.help.c_str());
     }
     std::printf("\n  any method, with a dense matrix (--ff-mode cached):\n");
     std::printf("      %-16s %s\n", "symmetrise",

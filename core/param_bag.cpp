@@ -111,4 +111,25 @@ std::string ParamBag::canonical() const {
   return out;
 }
 
+std::string fill_parameter_defaults(std::vector<ParameterInfo>& parameters,
+                                    const std::map<std::string, std::string>& defaults) {
+  std::string problems;
+  const auto add = [&](const std::string& problem) {
+    problems += (problems.empty() ? "" : "; ") + problem;
+  };
+  for (ParameterInfo& p : parameters) {
+    auto it = defaults.find(p.name);
+    if (it == defaults.end())
+      add("parameter '" + p.name + "' is listed but its options never read it");
+    else
+      p.default_value = it->second;
+  }
+  for (const auto& [key, value] : defaults) {
+    bool listed = false;
+    for (const ParameterInfo& p : parameters) listed = listed || p.name == key;
+    if (!listed) add("key '" + key + "' is read but not listed in its parameters");
+  }
+  return problems;
+}
+
 }  // namespace radlab

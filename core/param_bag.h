@@ -65,4 +65,20 @@ class ParamBag {
   std::map<std::string, std::string> defaults_;
 };
 
+// One parameter of a registered component (a solver, a form-factor method): its name, its
+// default as text and its help. The default is not typed by hand: the registries read it from
+// the component's options struct (ParamBag::defaults() of an empty bag; fill_parameter_defaults).
+struct ParameterInfo {
+  std::string name;
+  // Filled in by the registry from the options struct (any value given here is replaced).
+  std::string default_value;
+  std::string help;
+};
+
+// Sets each listed parameter's default_value from `defaults` (the keys an options struct read
+// from an empty bag, with their fallbacks). Returns what is wrong, "" when nothing is: a
+// parameter listed that the options never read, or a key read that is not listed.
+std::string fill_parameter_defaults(std::vector<ParameterInfo>& parameters,
+                                    const std::map<std::string, std::string>& defaults);
+
 }  // namespace radlab

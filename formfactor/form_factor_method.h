@@ -3,10 +3,16 @@
 // row(i) fills F_i* for every element j: the fraction of power leaving element i that arrives at
 // j. Methods are immutable after construction and row() is thread-safe, so a dense matrix is
 // built by calling row() from many threads. Each call reports its cost in RowCost.
+//
+// Everything code outside a method asks of it is a virtual function here: its stated errors
+// (row sums, reciprocity), side files kept beside a cached matrix, rows at a point (two levels'
+// patch rows), symmetric builds. No code outside a method names a concrete one; methods are
+// created through the registry (formfactor/registry.h), built-in or from a plugin.
 #pragma once
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -15,6 +21,15 @@
 #include "scene/mesh.h"
 
 namespace radlab {
+
+// What float storage adds to a row sum's error: each entry rounded by 2^-24 relative moves a row
+// sum by at most 6e-8 of itself.
+inline constexpr double kFloatStorageRowError = 1e-7;
+
+// How many standard errors of a row's sampling (visibility rays, Monte Carlo points) a stated
+// row error allows: with rows checked one by one, a Gaussian tail of 2.9e-7 per row (under 1%
+// over 24,000 rows).
+inline constexpr double kRowSamplingSigmas = 5.0;
 
 struct RowCost {
   uint64_t rays = 0;                // visibility rays cast
@@ -56,20 +71,58 @@ class FormFactorMethod {
   // row by row; only the cost changes. Not thread-safe themselves.
   virtual void begin_all_rows() const {}
   virtual void end_all_rows() const {}
+
+  // ---- What code outside a method asks of it (nothing outside a method names one) ----
+
+  // The error the method states for a row sum of its matrix (docs/formfactors.md, "Row sums"):
+  // a row of planar polygons sums to at most 1, so a row above 1 + this is a defect of the input
+  // or of the method, not noise. It covers every row computed so far in this process (or
+  // restored from side files): raycast's visibility sampling and exact's capped pairs are known
+  // only then. `basis`, if given, receives how the number is made up.
+  virtual double stated_row_sum_error(std::string* basis = nullptr) const = 0;
+  // Methods whose rows carry errors of their own (raycast: each row's visibility sampling) state
+  // a part common to every row and each row's allowance on top; the row-sum check then holds row
+  // i to 1 + common + allowance(i), asked only for rows above the common part (it may compute
+  // the row). Others hold every row to stated_row_sum_error().
+  virtual bool states_row_allowances() const { return false; }
+  virtual double row_sum_error_common() const { return stated_row_sum_error(); }
+  virtual double row_sum_allowance(size_t /*i*/) const { return 0.0; }
+  // The relative reciprocity defect the method states, e with |A_i F_ij - A_j F_ji| <=
+  // e (A_i F_ij + A_j F_ji) for every pair computed so far; or nullopt when it states none (a
+  // hemicube's aliasing, a rule taken at one point of the source).
+  virtual std::optional<double> stated_reciprocity_error() const { return std::nullopt; }
+  // F_ij without visibility when the method can say (the row-sum report tells partly occluded
+  // pairs by it), else -1.
+  virtual double unoccluded_pair(size_t /*i*/, size_t /*j*/) const { return -1.0; }
+
+  // Side files kept beside a cached matrix file (`matrix_file` + a suffix of the method's): what
+  // the stated error of a loaded matrix needs and the matrix does not hold (raycast's per-row
+  // sampling errors, exact's capped pairs). save_ writes them after the matrix is stored;
+  // load_ restores them when the matrix is loaded, and returns false when the cached matrix must
+  // not be used without them (it is then rebuilt). Not thread-safe.
+  virtual void save_side_files(const std::string& /*matrix_file*/) const {}
+  virtual bool load_side_files(const std::string& /*matrix_file*/, size_t /*n*/) const {
+    return true;
+  }
+
+  // The row from a point on element `element`'s surface (its plane and frame) other than its
+  // centroid, out[j] = F from that point to j, elements in the point's plane left out; false
+  // (and nothing done) when the method's rows are not taken at a point (it integrates over the
+  // source). Two levels' patch rows "centre" (solvers/two_level/patch_rows.h). Thread-safe.
+  virtual bool row_at_point(const Vec3& /*eye*/, size_t /*element*/, std::span<double> /*out*/,
+                            RowCost& /*cost*/) const {
+    return false;
+  }
+
+  // Symmetric builds (formfactor/matrix/symmetric_build.h): a method whose F_ij and F_ji come
+  // from one integral of the unordered pair says so, and gives
+  //   upper_row(i):  row[j] for j > i, the pair's integral over its integrated side (other
+  //                  entries untouched), thread-safe;
+  //   orient_row(i): row i of the matrix from the pair values (row[j] of pair (min, max)), the
+  //                  same bits as row(i).
+  virtual bool integrates_pairs_once() const { return false; }
+  virtual void upper_row(size_t i, std::span<double> row, RowCost& cost) const;
+  virtual void orient_row(size_t /*i*/, std::span<double> /*row*/) const {}
 };
-
-struct FormFactorMethodInfo {
-  std::string name;
-  std::string summary;
-  std::vector<std::pair<std::string, std::string>> parameters;  // key, "default: help"
-};
-
-// The explicit table of methods (for --help and `radlab solvers`, which lists them).
-const std::vector<FormFactorMethodInfo>& form_factor_methods();
-
-// Creates a method by name; unknown names or keys are UsageErrors listing the valid ones.
-std::unique_ptr<FormFactorMethod> make_form_factor_method(const std::string& name,
-                                                          ParamBag& parameters, const Scene& scene,
-                                                          const Mesh& mesh);
 
 }  // namespace radlab

@@ -31,21 +31,7 @@ namespace {
 
 // Fills in the defaults; returns what is wrong ("" when nothing is).
 std::string complete_parameters(SolverInfo& info) {
-  const std::map<std::string, std::string> defaults = read_parameter_defaults(info);
-  std::vector<std::string> problems;
-  for (ParameterInfo& p : info.parameters) {
-    auto it = defaults.find(p.name);
-    if (it == defaults.end())
-      problems.push_back("parameter '" + p.name + "' is listed but its options never read it");
-    else
-      p.default_value = it->second;
-  }
-  for (const auto& [key, value] : defaults) {
-    bool listed = false;
-    for (const ParameterInfo& p : info.parameters) listed = listed || p.name == key;
-    if (!listed) problems.push_back("key '" + key + "' is read but not listed in its parameters");
-  }
-  return text::join(problems, "; ");
+  return fill_parameter_defaults(info.parameters, read_parameter_defaults(info));
 }
 
 std::vector<SolverInfo> builtin_solvers() {

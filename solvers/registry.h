@@ -21,13 +21,6 @@
 
 namespace radlab {
 
-struct ParameterInfo {
-  std::string name;
-  // Filled in by the registry from the options struct (any value given here is replaced).
-  std::string default_value;
-  std::string help;
-};
-
 // What the runner may assume about one step.
 //   gathering: a step gathers at one element, in sweeps of n steps over the elements; sweeps get
 //              a checkpoint at the end of every sweep, the per-sweep rate fit and the

@@ -11,8 +11,7 @@
 #include "experiments/problem/two_level_problem.h"
 #include "formfactor/matrix/matrix_cache.h"
 #include "formfactor/matrix/symmetric_build.h"
-#include "formfactor/methods/exact.h"
-#include "formfactor/methods/raycast.h"
+#include "formfactor/registry.h"
 
 namespace radlab {
 namespace {
@@ -162,14 +161,13 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
     check_limit("pairs", pairs, what + " (" + spec.ff_method + ")");
   }
   if (dense) {
-    // exact's clip mode states the remaining error of pairs stopped short of its tolerance, kept
-    // beside the matrix: a cached matrix without it is not used.
-    const auto* clip = dynamic_cast<const ExactFormFactors*>(problem->method.get());
-    if (clip && !clip->records_row_excess()) clip = nullptr;
+    // What the method's stated error needs beside the matrix (its side files: raycast's per-row
+    // visibility errors, exact's pairs stopped short of its tolerance); a cached matrix whose
+    // method refuses it without them is not used.
     const auto load = [&]() -> std::optional<FormFactorMatrix> {
       BuildReport report = problem->build;
       std::optional<FormFactorMatrix> m = cache->load(key, &report);
-      if (m && clip && !load_row_excess(*clip, cache->path(key).string(), n)) return std::nullopt;
+      if (m && !problem->method->load_side_files(cache->path(key).string(), n)) return std::nullopt;
       problem->build = std::move(report);
       return m;
     };
@@ -183,26 +181,23 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
     }
     if (cached) {
       problem->matrix = std::move(*cached);
-      // raycast's per-row visibility errors, kept beside the matrix (else rows the check needs
-      // are recomputed)
-      if (auto* raycast = dynamic_cast<const RaycastFormFactors*>(problem->method.get()))
-        load_row_sampling_errors(*raycast, cache->path(key).string(), n);
       log::info("form factors: " + problem->build.summary());
     } else {
       // Sparse: pairs culled or fully occluded cost nothing, and no row more than its dense form
-      // (formfactor/matrix/matrix.h); the solvers read the same numbers either way. `exact`
-      // integrates each unordered pair once (the same bits as row by row:
+      // (formfactor/matrix/matrix.h); the solvers read the same numbers either way. A method
+      // that integrates each unordered pair once (exact) is built so (the same bits as row by row:
       // formfactor/matrix/symmetric_build.h).
-      const auto* exact = dynamic_cast<const ExactFormFactors*>(problem->method.get());
+      const bool pairs_once = problem->method->integrates_pairs_once();
       Progress progress("form factors (" + spec.ff_method + ", " + std::to_string(n) + " rows" +
-                            (exact ? ", each pair once)" : ")"),
-                        exact ? "pairs" : "rows",
-                        exact ? 0.5 * double(n) * double(n - 1) : double(n));
+                            (pairs_once ? ", each pair once)" : ")"),
+                        pairs_once ? "pairs" : "rows",
+                        pairs_once ? 0.5 * double(n) * double(n - 1) : double(n));
       const auto update = [&](size_t done, size_t) { progress.update(double(done)); };
-      problem->matrix = exact ? build_matrix_symmetric(*exact, problem->mesh, Precision::kDouble,
-                                                       Layout::kSparse, problem->build, update)
-                              : build_matrix(*problem->method, n, Precision::kDouble,
-                                             Layout::kSparse, problem->build, update);
+      problem->matrix =
+          pairs_once ? build_matrix_symmetric(*problem->method, problem->mesh, Precision::kDouble,
+                                              Layout::kSparse, problem->build, update)
+                     : build_matrix(*problem->method, n, Precision::kDouble, Layout::kSparse,
+                                    problem->build, update);
       progress.finish(std::to_string(problem->build.cost.rays) + " visibility rays");
       log::info("form factors: " + problem->build.summary());
     }
@@ -217,9 +212,7 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
     log_storage("form factors (double)", problem->matrix);
     if (cache && !problem->build.cached && cache->store(key, problem->matrix, problem->build)) {
       problem->build.cache_file = cache->path(key).string();
-      if (auto* raycast = dynamic_cast<const RaycastFormFactors*>(problem->method.get()))
-        save_row_sampling_errors(*raycast, problem->build.cache_file);
-      if (clip) save_row_excess(*clip, problem->build.cache_file);
+      problem->method->save_side_files(problem->build.cache_file);
     }
     building.reset();
     if (symmetrise_ff) {

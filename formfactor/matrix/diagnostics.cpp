@@ -10,8 +10,6 @@
 
 #include "core/param_bag.h"
 #include "core/text.h"
-#include "formfactor/methods/exact.h"
-#include "formfactor/methods/raycast.h"
 #include "scene/overlap.h"
 
 namespace radlab {
@@ -69,108 +67,8 @@ std::string MatrixDiagnostics::summary() const {
   return buffer;
 }
 
-namespace {
-
-// The value of `key` in a canonical "k=v,..." parameter string, or `fallback`.
-double parameter(const std::string& parameters, const std::string& key, double fallback) {
-  for (const std::string& item : text::split(parameters, ',')) {
-    const size_t eq = item.find('=');
-    if (eq != std::string::npos && item.substr(0, eq) == key) {
-      try {
-        return std::stod(item.substr(eq + 1));
-      } catch (...) {
-        return fallback;
-      }
-    }
-  }
-  return fallback;
-}
-
-// Sum of the classic (midpoint) delta form factors of a hemicube of resolution R: the largest a
-// raw hemicube row can sum to (each pixel holds one element).
-double midpoint_weight_sum(int R) {
-  double sum = 0.0;
-  const double d = 2.0 / R;
-  for (int a = 0; a < R; ++a)
-    for (int b = 0; b < R; ++b) {  // top face z = 1, x, y in [-1, 1]
-      const double x = -1 + (a + 0.5) * d, y = -1 + (b + 0.5) * d;
-      const double r2 = x * x + y * y + 1.0;
-      sum += d * d / (M_PI * r2 * r2);
-    }
-  for (int a = 0; a < R; ++a)
-    for (int b = 0; b < R / 2; ++b) {  // one side face x = 1, y in [-1, 1], z in [0, 1]; four
-      const double y = -1 + (a + 0.5) * d, z = (b + 0.5) * d;
-      const double r2 = y * y + z * z + 1.0;
-      sum += 4.0 * z * d * d / (M_PI * r2 * r2);
-    }
-  return sum;
-}
-
-}  // namespace
-
-// Visibility allowance of exact's visibility=rays (still the empirical one raycast had before
-// its rows carried their own sampling error): 0.04/sqrt(rays), five times the largest excess
-// measured on builtin:cornell at --subdiv 6 (0.0019), falling as the noise.
-static double visibility_allowance(double rays) {
-  return 0.04 / std::sqrt(std::max(rays, 1.0));
-}
-
 double stated_row_sum_error(const FormFactorMethod& method, std::string* basis) {
-  const std::string name = method.name(), p = method.parameters();
-  // Float storage rounds each entry by 2^-24 relative: a row sum by at most 6e-8 of itself.
-  const double storage = 1e-7;
-  char buffer[600];
-  double error = 0.0;
-  if (name == "raycast") {
-    const double tolerance = parameter(p, "tolerance", 1e-4);
-    const auto* raycast = dynamic_cast<const RaycastFormFactors*>(&method);
-    const double sampling = raycast ? raycast->largest_row_sampling_error() : 0.0;
-    const double short_of = raycast ? raycast->largest_row_quadrature_excess() : 0.0;
-    error = tolerance + kRowSamplingSigmas * sampling + short_of + storage;
-    std::snprintf(buffer, sizeof buffer,
-                  "raycast: quadrature tolerance %.3g + float storage 1e-7 + %g standard errors of "
-                  "the row's visibility sampling (largest so far %.3g; each row is checked "
-                  "against its own)",
-                  tolerance, kRowSamplingSigmas, sampling);
-    if (short_of > 0.0) {
-      const size_t used = std::strlen(buffer);
-      std::snprintf(buffer + used, sizeof buffer - used,
-                    " + the row's quadrature left beyond the tolerance where an integral stopped "
-                    "at its depth limit or work cap (largest %.3g, %zu pairs)",
-                    short_of, raycast->pairs_short_of_tolerance());
-    }
-  } else if (name == "exact") {
-    const double tolerance = parameter(p, "tolerance", 1e-10);
-    const bool rays = p.find("visibility=rays") != std::string::npos;
-    // clip mode: pairs stopped by the work cap add their remaining error (exact.h)
-    const auto* exact = dynamic_cast<const ExactFormFactors*>(&method);
-    const double capped = exact ? exact->largest_row_excess() : 0.0;
-    error = tolerance + storage + capped +
-            (rays ? visibility_allowance(parameter(p, "rays", 64)) : 0.0);
-    std::snprintf(buffer, sizeof buffer, "exact: quadrature tolerance %.3g + float storage 1e-7%s",
-                  tolerance, rays ? " + visibility 0.04/sqrt(rays)" : "");
-    if (capped > 0.0) {
-      const size_t used = std::strlen(buffer);
-      std::snprintf(buffer + used, sizeof buffer - used,
-                    " + %.3g (the largest row's remaining error of %zu pairs stopped short of "
-                    "the tolerance by max_evaluations or max_depth)",
-                    capped, exact->pairs_capped());
-    }
-  } else if (name == "hemicube") {
-    const int R = int(parameter(p, "resolution", 150));
-    const bool midpoint = p.find("weights=exact") == std::string::npos;
-    const double excess = midpoint ? std::max(0.0, midpoint_weight_sum(R) - 1.0) : 0.0;
-    error = excess + 1e-6 + storage;
-    std::snprintf(buffer, sizeof buffer,
-                  "hemicube: a raw row is at most the sum of its pixel weights (%s: 1 + %.3g) + "
-                  "rounding 1e-6",
-                  midpoint ? "midpoint" : "exact", excess);
-  } else {
-    error = 1e-6;
-    std::snprintf(buffer, sizeof buffer, "%s: no stated error; rounding 1e-6", name.c_str());
-  }
-  if (basis) *basis = buffer;
-  return error;
+  return method.stated_row_sum_error(basis);
 }
 
 namespace {
@@ -308,16 +206,11 @@ RowSumCheck check_row_sums(const FormFactorMatrix& m, const Scene& scene, const 
 
 RowSumCheck check_row_sums(const FormFactorMatrix& matrix, const Scene& scene, const Mesh& mesh,
                            const FormFactorMethod& method) {
-  const auto* raycast = dynamic_cast<const RaycastFormFactors*>(&method);
-  if (!raycast) return check_row_sums(matrix, scene, mesh, stated_row_sum_error(method));
-  const double tolerance = parameter(method.parameters(), "tolerance", 1e-4);
-  return check_row_sums(
-      matrix, scene, mesh, tolerance + 1e-7,
-      [raycast](size_t i, size_t j) { return raycast->unoccluded_pair(i, j); }, 5, 4,
-      [raycast](size_t i) {
-        return kRowSamplingSigmas * raycast->row_sampling_error(i) +
-               raycast->row_quadrature_excess(i);
-      });
+  const auto unoccluded = [&method](size_t i, size_t j) { return method.unoccluded_pair(i, j); };
+  if (!method.states_row_allowances())
+    return check_row_sums(matrix, scene, mesh, method.stated_row_sum_error(), unoccluded);
+  return check_row_sums(matrix, scene, mesh, method.row_sum_error_common(), unoccluded, 5, 4,
+                        [&method](size_t i) { return method.row_sum_allowance(i); });
 }
 
 std::string RowSumCheck::headline() const {

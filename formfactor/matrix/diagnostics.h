@@ -30,16 +30,9 @@ struct MatrixDiagnostics {
 
 MatrixDiagnostics diagnose(const FormFactorMatrix& matrix, std::span<const double> area);
 
-// The error a method states for a row sum of its matrix (docs/formfactors.md, "Row sums"): a
-// row of planar polygons sums to at most 1, so a row above 1 + this is a defect of the input or
-// of the method, not noise. `basis` (if given) receives how the number is made up. For raycast
-// it holds the largest per-row visibility term of the rows computed so far (each row is checked
-// against its own by the check_row_sums overload taking the method).
+// The error a method states for a row sum of its matrix: the method's own
+// (FormFactorMethod::stated_row_sum_error; docs/formfactors.md, "Row sums").
 double stated_row_sum_error(const FormFactorMethod& method, std::string* basis = nullptr);
-
-// How many standard errors of a row's visibility sampling its stated error allows: with rows
-// checked one by one, a Gaussian tail of 2.9e-7 per row (under 1% over 24,000 rows).
-inline constexpr double kRowSamplingSigmas = 5.0;
 
 // The row-sum check of every matrix build: rows above 1 + the stated error, the worst of them
 // with their largest entries, and for each entry what makes it too large.
@@ -77,10 +70,10 @@ RowSumCheck check_row_sums(const FormFactorMatrix& matrix, const Scene& scene, c
                            size_t worst_rows = 5, size_t entries_per_row = 4,
                            const std::function<double(size_t)>& row_allowance = {});
 
-// The check with the method's own stated error: for raycast, quadrature tolerance and float
-// storage for every row plus kRowSamplingSigmas standard errors of that row's visibility sampling
-// (RaycastFormFactors::row_sampling_error; asked only for rows above the common part), and F^u
-// for the classification; for the other methods the scalar stated_row_sum_error.
+// The check with the method's own stated error: a method that states row allowances
+// (FormFactorMethod::states_row_allowances; raycast: each row's visibility sampling) is held to
+// its common part plus each row's allowance (asked only for rows above the common part), the
+// others to stated_row_sum_error(); F^u classifies entries where the method gives it.
 RowSumCheck check_row_sums(const FormFactorMatrix& matrix, const Scene& scene, const Mesh& mesh,
                            const FormFactorMethod& method);
 

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <stdexcept>
 #include <vector>
 
 namespace radlab {
@@ -50,9 +51,10 @@ void upper_columns(const FormFactorMatrix& upper, size_t row, size_t lo, size_t 
 }
 
 // Rows [lo, hi) of the result: F_ab of the integrated side from `upper` (row min(i, j)), the
-// other side by reciprocity, each entry by the same expression as ExactFormFactors::pair(i, j).
-void assemble_rows(const FormFactorMatrix& upper, const Mesh& mesh, size_t lo, size_t hi,
-                   FormFactorMatrix& matrix) {
+// other side by reciprocity (the method's orient_row), each entry by the same expression as the
+// method's row(i).
+void assemble_rows(const FormFactorMethod& method, const FormFactorMatrix& upper, const Mesh& mesh,
+                   size_t lo, size_t hi, FormFactorMatrix& matrix) {
   const size_t n = mesh.size();
   thread_local std::vector<double> tile;  // (hi - lo) rows of n: F_ab of the pair (i, j)
   tile.resize(kBlock * n);
@@ -68,18 +70,19 @@ void assemble_rows(const FormFactorMatrix& upper, const Mesh& mesh, size_t lo, s
     double* row = tile.data() + (i - lo) * n;
     upper_columns(upper, i, i + 1, n, row + i + 1);
     row[i] = 0.0;
-    for (size_t j = 0; j < n; ++j)
-      if (!ExactFormFactors::integrates_from(mesh, i, j))
-        row[j] = ExactFormFactors::reciprocal(row[j], mesh.area[j], mesh.area[i]);
+    method.orient_row(i, std::span<double>(row, n));
     matrix.set_row(i, std::span<const double>(row, n));
   }
 }
 
 }  // namespace
 
-FormFactorMatrix build_matrix_symmetric(const ExactFormFactors& method, const Mesh& mesh,
+FormFactorMatrix build_matrix_symmetric(const FormFactorMethod& method, const Mesh& mesh,
                                         Precision precision, Layout layout, BuildReport& report,
                                         const std::function<void(size_t, size_t)>& progress) {
+  if (!method.integrates_pairs_once())
+    throw std::logic_error("build_matrix_symmetric: form factors '" + method.name() +
+                           "' do not integrate each pair once");
   const size_t n = mesh.size();
   const auto start = std::chrono::steady_clock::now();
   // upper(i, j), j > i: the integral over the pair's integrated side a, F_ab.
@@ -115,8 +118,8 @@ FormFactorMatrix build_matrix_symmetric(const ExactFormFactors& method, const Me
   tbb::parallel_for(tbb::blocked_range<size_t>(0, (n + kBlock - 1) / kBlock, 1),
                     [&](const tbb::blocked_range<size_t>& r) {
                       for (size_t b = r.begin(); b != r.end(); ++b)
-                        assemble_rows(upper, mesh, b * kBlock, std::min(n, (b + 1) * kBlock),
-                                      matrix);
+                        assemble_rows(method, upper, mesh, b * kBlock,
+                                      std::min(n, (b + 1) * kBlock), matrix);
                     });
   report.cost = costs.combine([](RowCost x, const RowCost& y) { return x += y; });
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

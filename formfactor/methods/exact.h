@@ -51,10 +51,10 @@
 // Left out: pairs facing away or coplanar (no work, pairs_culled); visibility rays wherever
 // nothing can occlude (pairs_unoccluded).
 //
-// Parameters: tolerance (relative, per pair, 1e-10), max_depth (subdivision levels,
-// 16), visibility (refuse | rays | clip, refuse), rays (per pair that may be blocked, 64; only with
-// visibility=rays), seed (0; only with visibility=rays), max_evaluations (per occluded pair,
-// 20000; only with visibility=clip).
+// Parameters (their defaults are ExactOptions' own; `radlab solvers` prints them): tolerance
+// (relative, per pair), max_depth (subdivision levels), visibility (refuse | rays | clip), rays
+// (per pair that may be blocked; only with visibility=rays), seed (only with visibility=rays),
+// max_evaluations (per occluded pair; only with visibility=clip).
 #pragma once
 
 #include <cmath>
@@ -87,6 +87,10 @@ struct ExactOptions {
   std::string canonical() const;
 };
 
+class ExactFormFactors;
+void save_row_excess(const ExactFormFactors& method, const std::string& matrix_file);
+bool load_row_excess(const ExactFormFactors& method, const std::string& matrix_file, size_t n);
+
 class ExactFormFactors final : public FormFactorMethod {
  public:
   // Throws InputError when the scene can occlude and visibility rays are off.
@@ -98,6 +102,23 @@ class ExactFormFactors final : public FormFactorMethod {
   void row(size_t i, std::span<double> out, RowCost& cost) const override;
   bool row_part(size_t i, size_t lo, size_t hi, std::span<double> out,
                 RowCost& cost) const override;
+
+  // Stated errors (form_factor_method.h): a row sum within the tolerance, float storage, what
+  // pairs stopped short of the tolerance left (largest_row_excess) and, with visibility=rays,
+  // the visibility allowance; reciprocity to rounding (each pair is one integral, the other
+  // entry its reciprocal).
+  double stated_row_sum_error(std::string* basis = nullptr) const override;
+  std::optional<double> stated_reciprocity_error() const override;
+  // The ".excess" side file (save_/load_row_excess below): a cached matrix without it is rebuilt.
+  void save_side_files(const std::string& matrix_file) const override {
+    if (records_row_excess()) save_row_excess(*this, matrix_file);
+  }
+  bool load_side_files(const std::string& matrix_file, size_t n) const override {
+    return !records_row_excess() || load_row_excess(*this, matrix_file, n);
+  }
+  // Symmetric builds: upper_row (below) and the other side by reciprocity.
+  bool integrates_pairs_once() const override { return true; }
+  void orient_row(size_t i, std::span<double> row) const override;
 
   // F_ij, integrated over the smaller element of the pair (the lower index on equal areas; in
   // clip mode sometimes the other one, see pair_integral) and turned around by reciprocity on
@@ -118,7 +139,7 @@ class ExactFormFactors final : public FormFactorMethod {
   // their set-up (heights, gap, the double-area order: square roots and divisions in a chain)
   // one after the other before any is integrated, so the chains overlap instead of stalling
   // each pair (build_matrix_symmetric's rows).
-  void upper_row(size_t i, std::span<double> out, RowCost& cost) const;
+  void upper_row(size_t i, std::span<double> out, RowCost& cost) const override;
   // Whether pair(i, j) integrates over i (true) or over j and scales by A_j / A_i (false).
   static bool integrates_from(const Mesh& mesh, size_t i, size_t j) {
     return mesh.area[i] < mesh.area[j] || (mesh.area[i] == mesh.area[j] && i < j);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <glm/geometric.hpp>
 #include <limits>
 #include <map>
@@ -12,14 +13,28 @@
 
 #include "core/error.h"
 #include "formfactor/integrate/point_polygon.h"
+#include "formfactor/methods/method_infos.h"
 #include "formfactor/visibility/visibility.h"
 
 namespace radlab {
 
+FormFactorMethodInfo hemicube_method_info() {
+  return {"hemicube",
+          "Cohen-Greenberg hemicube at each element's centre: z-buffered item buffer, one row per "
+          "hemicube (aliasing included)",
+          {{"resolution", "", "pixels across the top face (even; side faces R x R/2)"},
+           {"weights", "",
+            "midpoint: classic delta form factors; exact: integrated pixel weights (sum 1)"}},
+          configure_from_options<HemicubeFormFactors, HemicubeOptions>(),
+          /*rows_at_points=*/true};
+}
+
 HemicubeOptions HemicubeOptions::from(ParamBag& bag) {
   HemicubeOptions o;
   o.resolution = int(bag.get_int("resolution", o.resolution, kIntMin, kIntMax));
-  const std::string w = bag.get_choice("weights", "midpoint", {"midpoint", "exact"});
+  const std::string w =
+      bag.get_choice("weights", o.weights == HemicubeWeighting::kExact ? "exact" : "midpoint",
+                     {"midpoint", "exact"});
   o.weights = w == "exact" ? HemicubeWeighting::kExact : HemicubeWeighting::kMidpoint;
   o.validate();
   return o;
@@ -278,6 +293,46 @@ HemicubeFormFactors::HemicubeFormFactors(const Scene& scene, const Mesh& mesh,
     }
     frame_u_[e] = u / length;
   }
+}
+
+namespace {
+
+// Sum of the classic (midpoint) delta form factors of a hemicube of resolution R: the largest a
+// raw hemicube row can sum to (each pixel holds one element).
+double midpoint_weight_sum(int R) {
+  double sum = 0.0;
+  const double d = 2.0 / R;
+  for (int a = 0; a < R; ++a)
+    for (int b = 0; b < R; ++b) {  // top face z = 1, x, y in [-1, 1]
+      const double x = -1 + (a + 0.5) * d, y = -1 + (b + 0.5) * d;
+      const double r2 = x * x + y * y + 1.0;
+      sum += d * d / (M_PI * r2 * r2);
+    }
+  for (int a = 0; a < R; ++a)
+    for (int b = 0; b < R / 2; ++b) {  // one side face x = 1, y in [-1, 1], z in [0, 1]; four
+      const double y = -1 + (a + 0.5) * d, z = (b + 0.5) * d;
+      const double r2 = y * y + z * z + 1.0;
+      sum += 4.0 * z * d * d / (M_PI * r2 * r2);
+    }
+  return sum;
+}
+
+}  // namespace
+
+double HemicubeFormFactors::stated_row_sum_error(std::string* basis) const {
+  const int R = options_.resolution;
+  const bool midpoint = options_.weights == HemicubeWeighting::kMidpoint;
+  const double excess = midpoint ? std::max(0.0, midpoint_weight_sum(R) - 1.0) : 0.0;
+  const double error = excess + 1e-6 + kFloatStorageRowError;
+  if (basis) {
+    char buffer[300];
+    std::snprintf(buffer, sizeof buffer,
+                  "hemicube: a raw row is at most the sum of its pixel weights (%s: 1 + %.3g) + "
+                  "rounding 1e-6",
+                  midpoint ? "midpoint" : "exact", excess);
+    *basis = buffer;
+  }
+  return error;
 }
 
 std::vector<std::string> HemicubeFormFactors::left_out() const {

@@ -40,7 +40,8 @@
 // plus O(3 R^2) to clear the buffers and sum the weights. No rays (RowCost::kernel_evaluations
 // counts depth tests).
 //
-// Parameters: resolution (R, even, 150), weights (midpoint | exact, midpoint).
+// Parameters (their defaults are HemicubeOptions' own; `radlab solvers` prints them): resolution
+// (R, even), weights (midpoint | exact).
 #pragma once
 
 #include <cstdint>
@@ -85,6 +86,17 @@ class HemicubeFormFactors final : public FormFactorMethod {
   std::string parameters() const override { return options_.canonical(); }
   std::vector<std::string> left_out() const override;
   void row(size_t i, std::span<double> out, RowCost& cost) const override;
+
+  // Stated error (form_factor_method.h): a raw row is at most the sum of its pixel weights (each
+  // pixel holds one element), so 1 + the weights' excess over 1 + rounding. No reciprocity is
+  // stated: a row is one point's view, aliased by whole pixels.
+  double stated_row_sum_error(std::string* basis = nullptr) const override;
+  // row_at() with element's normal and frame (two levels' patch rows "centre").
+  bool row_at_point(const Vec3& eye, size_t element, std::span<double> out,
+                    RowCost& cost) const override {
+    row_at(eye, mesh_.normal[element], frame_u_[element], out, cost);
+    return true;
+  }
 
   // One hemicube at an arbitrary eye point on a surface (unit `normal`, unit tangent `u` in its
   // plane as the first frame axis): out[j] = the form factor from that point to element j. The

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <glm/geometric.hpp>
@@ -12,6 +14,7 @@
 #include "formfactor/integrate/contour_integral.h"
 #include "formfactor/integrate/pair_geometry.h"
 #include "formfactor/integrate/polygon_integral.h"
+#include "formfactor/methods/method_infos.h"
 #include "scene/geometry.h"
 
 namespace radlab {
@@ -47,7 +50,7 @@ RaycastOptions RaycastOptions::from(ParamBag& bag) {
   o.tolerance = bag.get_double("tolerance", o.tolerance);
   o.rays = int(bag.get_int("rays", o.rays, kIntMin, kIntMax));
   o.max_rays = int(bag.get_int("max_rays", std::max(o.max_rays, o.rays), kIntMin, kIntMax));
-  o.seed = uint64_t(bag.get_int("seed", 0, 0, kInt64Max));
+  o.seed = uint64_t(bag.get_int("seed", static_cast<long long>(o.seed), 0, kInt64Max));
   o.max_order = int(bag.get_int("max_order", o.max_order, kIntMin, kIntMax));
   o.shafts = bag.get_bool("shafts", o.shafts);
   o.validate();
@@ -72,6 +75,18 @@ std::string RaycastOptions::canonical() const {
                 max_rays, rays, static_cast<unsigned long long>(seed), shafts ? "true" : "false",
                 tolerance);
   return buffer;
+}
+
+FormFactorMethodInfo raycast_method_info() {
+  return {"raycast",
+          "Lambert point-to-polygon formula integrated over i, times an Embree visibility fraction",
+          {{"tolerance", "", "relative quadrature error per pair"},
+           {"rays", "", "visibility rays per pair that can be occluded"},
+           {"max_rays", "", "rays for partly occluded pairs with large F (more as F grows)"},
+           {"seed", "", "seed of the jittered visibility samples"},
+           {"max_order", "", "largest fixed Gauss rule per axis before adaptive subdivision"},
+           {"shafts", "", "shaft culling (no rays where nothing can block); false to measure it"}},
+          configure_from_options<RaycastFormFactors, RaycastOptions>()};
 }
 
 RaycastFormFactors::RaycastFormFactors(const Scene& scene, const Mesh& mesh, RaycastOptions options)
@@ -436,6 +451,38 @@ double RaycastFormFactors::largest_row_sampling_error() const {
   for (float s : row_sigma_)
     if (!std::isnan(s)) largest = std::max(largest, double(s));
   return largest;
+}
+
+double RaycastFormFactors::stated_row_sum_error(std::string* basis) const {
+  const double tolerance = options_.tolerance;
+  const double sampling = largest_row_sampling_error();
+  const double short_of = largest_row_quadrature_excess();
+  const double error = tolerance + kRowSamplingSigmas * sampling + short_of + kFloatStorageRowError;
+  if (basis) {
+    char buffer[600];
+    std::snprintf(buffer, sizeof buffer,
+                  "raycast: quadrature tolerance %.3g + float storage 1e-7 + %g standard errors of "
+                  "the row's visibility sampling (largest so far %.3g; each row is checked "
+                  "against its own)",
+                  tolerance, kRowSamplingSigmas, sampling);
+    if (short_of > 0.0) {
+      const size_t used = std::strlen(buffer);
+      std::snprintf(buffer + used, sizeof buffer - used,
+                    " + the row's quadrature left beyond the tolerance where an integral stopped "
+                    "at its depth limit or work cap (largest %.3g, %zu pairs)",
+                    short_of, pairs_short_of_tolerance());
+    }
+    *basis = buffer;
+  }
+  return error;
+}
+
+std::optional<double> RaycastFormFactors::stated_reciprocity_error() const {
+  // F_ij = F^u_ij V_ij with V_ji = V_ij (the same rays), so A_i F_ij - A_j F_ji is V_ij times the
+  // quadrature's defect, each F^u within `tolerance` of its exact value. A pair whose integral
+  // stopped short of the tolerance has no such bound.
+  if (pairs_short_of_tolerance() > 0) return std::nullopt;
+  return options_.tolerance;
 }
 
 bool RaycastFormFactors::row_part(size_t i, size_t lo, size_t hi, std::span<double> out,

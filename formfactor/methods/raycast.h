@@ -23,9 +23,10 @@
 // (visibility.h) and carried into each row's stated error as 5 sigma of the row's sum
 // (row_sampling_error; diagnostics.h). Close pairs draw their rays in solid angle (visibility.h).
 //
-// Parameters: tolerance (relative quadrature error per pair, 1e-4), rays (per occludable pair,
-// 16), seed (0), max_order (largest fixed Gauss rule before going adaptive, 8), shafts (shaft
-// culling on or off, true; off only to measure what it saves).
+// Parameters (their defaults are RaycastOptions' own; `radlab solvers` prints them): tolerance
+// (relative quadrature error per pair), rays (per occludable pair), max_rays, seed, max_order
+// (largest fixed Gauss rule before going adaptive), shafts (shaft culling on or off; off only to
+// measure what it saves).
 #pragma once
 
 #include <memory>
@@ -50,6 +51,11 @@ struct RaycastOptions {
   std::string canonical() const;
 };
 
+class RaycastFormFactors;
+void save_row_sampling_errors(const RaycastFormFactors& method, const std::string& matrix_file);
+bool load_row_sampling_errors(const RaycastFormFactors& method, const std::string& matrix_file,
+                              size_t n);
+
 class RaycastFormFactors final : public FormFactorMethod {
  public:
   RaycastFormFactors(const Scene& scene, const Mesh& mesh, RaycastOptions options);
@@ -63,11 +69,34 @@ class RaycastFormFactors final : public FormFactorMethod {
   void begin_all_rows() const override { visibility_.remember_pairs(true); }
   void end_all_rows() const override { visibility_.remember_pairs(false); }
 
+  // Stated errors (form_factor_method.h): a row sum within the quadrature tolerance, float
+  // storage and kRowSamplingSigmas standard errors of the row's visibility sampling, plus what
+  // its integrals left beyond the tolerance; reciprocity within the tolerance (V_ij = V_ji, the
+  // same rays), stated only while no pair stopped short of it.
+  double stated_row_sum_error(std::string* basis = nullptr) const override;
+  bool states_row_allowances() const override { return true; }
+  double row_sum_error_common() const override {
+    return options_.tolerance + kFloatStorageRowError;
+  }
+  double row_sum_allowance(size_t i) const override {
+    return kRowSamplingSigmas * row_sampling_error(i) + row_quadrature_excess(i);
+  }
+  std::optional<double> stated_reciprocity_error() const override;
+  // The ".sigma" side file (save_/load_row_sampling_errors below); a matrix loaded without it is
+  // still used, the rows the check needs being recomputed.
+  void save_side_files(const std::string& matrix_file) const override {
+    save_row_sampling_errors(*this, matrix_file);
+  }
+  bool load_side_files(const std::string& matrix_file, size_t n) const override {
+    load_row_sampling_errors(*this, matrix_file, n);
+    return true;
+  }
+
   // One pair, for tests and the catalogue comparisons.
   double pair(size_t i, size_t j, RowCost& cost) const;
   bool casts_rays() const { return visibility_.casts_rays(); }
   // F^u_ij, the pair without visibility (0 when it faces away or is coplanar), for diagnostics.
-  double unoccluded_pair(size_t i, size_t j) const;
+  double unoccluded_pair(size_t i, size_t j) const override;
   // The standard error of row i's sum from the visibility sampling, sqrt(sum_j (F^u_ij
   // sigma(V_ij))^2) (pairs are traced independently), known once row i has been computed (a
   // build of every row); a row not yet computed (a matrix loaded from the cache) is computed

@@ -9,10 +9,12 @@
 #include <chrono>
 #include <cstdio>
 #include <mutex>
+#include <stdexcept>
 #include <vector>
 
 #include "core/error.h"
-#include "formfactor/methods/hemicube.h"
+#include "core/text.h"
+#include "formfactor/registry.h"
 
 namespace radlab {
 
@@ -37,9 +39,10 @@ std::string PatchRowReport::summary() const {
 
 namespace {
 
-// One hemicube at patch p's centre into row (double).
-void centre_row(const HemicubeFormFactors& hemicube, const Mesh& mesh, const Patches& patches,
-                size_t p, std::vector<double>& row, RowCost& cost) {
+// The method's row at patch p's centre into row (double), in the plane and frame of its first
+// element; false when the method takes no rows at a point.
+bool centre_row(const FormFactorMethod& method, const Mesh& mesh, const Patches& patches, size_t p,
+                std::vector<double>& row, RowCost& cost) {
   const auto members = patches.members(p);
   const uint32_t first = members[0];
   // One element: its own eye and frame, so the row is its element row bit for bit.
@@ -49,7 +52,7 @@ void centre_row(const HemicubeFormFactors& hemicube, const Mesh& mesh, const Pat
     for (uint32_t e : members) eye += mesh.area[e] * mesh.centroid[e];
     eye /= patches.area(p);
   }
-  hemicube.row_at(eye, mesh.normal[first], hemicube.frame_u(first), row, cost);
+  return method.row_at_point(eye, first, row, cost);
 }
 
 }  // namespace
@@ -59,13 +62,17 @@ RowMatrix compute_patch_rows(const FormFactorMethod& method, const Mesh& mesh,
                              PatchRowReport& report,
                              const std::function<void(size_t done, size_t total)>& progress) {
   const auto start = std::chrono::steady_clock::now();
-  const auto* hemicube = dynamic_cast<const HemicubeFormFactors*>(&method);
-  if (rule == PatchRowRule::kCentre && !hemicube)
-    throw UsageError(
-        "patches: rows = \"centre\" (one hemicube at each patch's centre) needs "
-        "--ff hemicube; form factors '" +
-        method.name() + "' integrate over the source: use rows = \"mean\"");
   const size_t n = mesh.size(), P = patches.size();
+  // The method's registry entry says whether its rows are taken at a point (the method
+  // conformance tests hold row_at_point() to it).
+  if (rule == PatchRowRule::kCentre && !form_factor_method_info(method.name()).rows_at_points) {
+    std::vector<std::string> at_points;
+    for (const FormFactorMethodInfo& info : form_factor_methods())
+      if (info.rows_at_points) at_points.push_back(info.name);
+    throw UsageError("patches: rows = \"centre\" (one row at each patch's centre) needs --ff " +
+                     text::join(at_points, " or ") + " (rows taken at a point); form factors '" +
+                     method.name() + "' integrate over the source: use rows = \"mean\"");
+  }
   RowMatrix rows(P, n, precision);
   std::mutex merge;
   std::atomic<size_t> done{0};
@@ -74,31 +81,32 @@ RowMatrix compute_patch_rows(const FormFactorMethod& method, const Mesh& mesh,
   const size_t chunk = std::max<size_t>(1, P / 50);
   for (size_t begin = 0; begin < P; begin += chunk) {
     const size_t end = std::min(P, begin + chunk);
-    tbb::parallel_for(tbb::blocked_range<size_t>(begin, end),
-                      [&](const tbb::blocked_range<size_t>& range) {
-                        RowCost cost;
-                        size_t computed = 0;
-                        std::vector<double> row(n), element(n);
-                        for (size_t p = range.begin(); p != range.end(); ++p) {
-                          if (rule == PatchRowRule::kCentre) {
-                            centre_row(*hemicube, mesh, patches, p, row, cost);
-                            ++computed;
-                          } else {
-                            std::fill(row.begin(), row.end(), 0.0);
-                            const auto members = patches.members(p);
-                            const auto weights = patches.weights(p);
-                            for (size_t k = 0; k < members.size(); ++k) {
-                              method.row(members[k], element, cost);
-                              for (size_t e = 0; e < n; ++e) row[e] += weights[k] * element[e];
-                              ++computed;
-                            }
-                          }
-                          for (size_t e = 0; e < n; ++e) rows.set(p, e, row[e]);
-                        }
-                        std::lock_guard<std::mutex> lock(merge);
-                        report.cost += cost;
-                        report.method_rows += computed;
-                      });
+    tbb::parallel_for(
+        tbb::blocked_range<size_t>(begin, end), [&](const tbb::blocked_range<size_t>& range) {
+          RowCost cost;
+          size_t computed = 0;
+          std::vector<double> row(n), element(n);
+          for (size_t p = range.begin(); p != range.end(); ++p) {
+            if (rule == PatchRowRule::kCentre) {
+              if (!centre_row(method, mesh, patches, p, row, cost))
+                throw std::logic_error(method.name() + ": rows_at_points but no row_at_point()");
+              ++computed;
+            } else {
+              std::fill(row.begin(), row.end(), 0.0);
+              const auto members = patches.members(p);
+              const auto weights = patches.weights(p);
+              for (size_t k = 0; k < members.size(); ++k) {
+                method.row(members[k], element, cost);
+                for (size_t e = 0; e < n; ++e) row[e] += weights[k] * element[e];
+                ++computed;
+              }
+            }
+            for (size_t e = 0; e < n; ++e) rows.set(p, e, row[e]);
+          }
+          std::lock_guard<std::mutex> lock(merge);
+          report.cost += cost;
+          report.method_rows += computed;
+        });
     done = end;
     if (progress) progress(done, P);
   }
@@ -137,6 +145,21 @@ void TwoLevelRows::row(size_t e, std::span<double> out, RowCost& cost) const {
     for (size_t k = 0; k < members.size(); ++k) out[members[k]] = to_patch * weights[k];
   }
   cost.kernel_evaluations += patches_.size();
+}
+
+double TwoLevelRows::stated_row_sum_error(std::string* basis) const {
+  std::vector<double> gather(mesh_.size(), 0.0);
+  for (size_t p = 0; p < patches_.size(); ++p)
+    for (size_t e = 0; e < mesh_.size(); ++e)
+      gather[e] += rows_.at(p, e) * (patches_.area(p) / mesh_.area[e]);
+  double largest = 0.0;
+  for (double g : gather) largest = std::max(largest, g);
+  const double excess = std::max(0.0, largest - 1.0) + kFloatStorageRowError;
+  if (basis)
+    *basis =
+        "two levels: K's rows sum to the element-to-patch factors reciprocity gives; their "
+        "largest excess over 1, measured, + float storage 1e-7";
+  return excess;
 }
 
 RowMatrix block_rows(const RowMatrix& rows, std::span<const double> area,

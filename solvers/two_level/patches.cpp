@@ -12,6 +12,7 @@
 
 #include "core/error.h"
 #include "core/text.h"
+#include "formfactor/registry.h"
 
 namespace radlab {
 
@@ -141,7 +142,7 @@ void PatchOptions::validate() const {
 
 std::string PatchOptions::resolved_rows(const std::string& method) const {
   if (rows != "auto") return rows;
-  return method == "hemicube" ? "centre" : "mean";
+  return form_factor_method_info(method).rows_at_points ? "centre" : "mean";
 }
 
 std::string PatchOptions::canonical() const {

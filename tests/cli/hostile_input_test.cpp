@@ -20,6 +20,7 @@
 #include "experiments/sweep/experiment_spec.h"
 #include "experiments/sweep/sweep.h"
 #include "formfactor/form_factor_method.h"
+#include "formfactor/registry.h"
 #include "scene/builtin/builtin_scenes.h"
 #include "scene/mesh.h"
 #include "scene/readers/mgf_reader.h"

@@ -26,6 +26,7 @@
 #include "formfactor/methods/exact.h"
 #include "formfactor/methods/hemicube.h"
 #include "formfactor/methods/raycast.h"
+#include "formfactor/registry.h"
 #include "formfactor/visibility/shaft.h"
 #include "formfactor/visibility/visibility.h"
 #include "scene/builtin/builtin_scenes.h"

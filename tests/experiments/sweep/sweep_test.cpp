@@ -21,6 +21,7 @@
 #include "experiments/sweep/experiment_spec.h"
 #include "experiments/sweep/merge.h"
 #include "formfactor/form_factor_method.h"
+#include "formfactor/registry.h"
 #include "scene/scene_loader.h"
 #include "solvers/registry.h"
 #include "tests/experiment_fixtures.h"

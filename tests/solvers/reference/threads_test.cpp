@@ -23,6 +23,7 @@
 #include "formfactor/form_factor_method.h"
 #include "formfactor/matrix/matrix.h"
 #include "formfactor/matrix/parallel_row.h"
+#include "formfactor/registry.h"
 #include "scene/builtin/builtin_scenes.h"
 #include "scene/validate.h"
 #include "solvers/kernels/kernels.h"
@@ -109,6 +110,10 @@ class TwoThreadMethod final : public FormFactorMethod {
  public:
   std::string name() const override { return "two-thread"; }
   std::string parameters() const override { return ""; }
+  double stated_row_sum_error(std::string* basis) const override {
+    if (basis) *basis = "two-thread: rows of integers, no error";
+    return 0.0;
+  }
   void row(size_t i, std::span<double> out, RowCost& cost) const override {
     for (size_t j = 0; j < out.size(); ++j) out[j] = double(i + j);
     cost.kernel_evaluations += out.size();
