@@ -42,6 +42,10 @@ std::string abi_mismatch(const PluginAbi& theirs) {
   if (theirs.solver_info_size != ours.solver_info_size)
     return "its SolverInfo has " + std::to_string(theirs.solver_info_size) + " bytes, radlab's " +
            std::to_string(ours.solver_info_size) + " (headers of another radlab?)";
+  if (theirs.method_info_size != ours.method_info_size)
+    return "its FormFactorMethodInfo has " + std::to_string(theirs.method_info_size) +
+           " bytes, radlab's " + std::to_string(ours.method_info_size) +
+           " (headers of another radlab?)";
   return "";
 }
 

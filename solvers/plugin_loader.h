@@ -1,10 +1,12 @@
-// Loading solver plugins (solvers/plugin.h) into the running program with dlopen.
+// Loading plugins (solvers/plugin.h: solvers, form-factor methods) into the running program with
+// dlopen.
 //
 // Errors are radlab Errors naming the file: a path that does not exist is a UsageError (exit 2;
 // the option is wrong), a file that is not a loadable library, lacks the plugin symbols, was
-// built against another radlab or plugin ABI, or registers a solver that is refused (duplicate
-// name, parameters that differ from its options) is an InputError (exit 3). A library is never
-// unloaded (its solvers' code must outlive them); loading the same file twice does nothing.
+// built against another radlab or plugin ABI, or registers a solver or method that is refused
+// (duplicate name, parameters that differ from its options) is an InputError (exit 3). A library
+// is never unloaded (its solvers' and methods' code must outlive them); loading the same file
+// twice does nothing.
 #pragma once
 
 #include <string>
