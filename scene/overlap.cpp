@@ -225,9 +225,15 @@ OverlapReport resolve_coincident_polygons(Scene& scene, bool keep) {
           }
     if (pieces.empty()) {
       ++report.dropped;
+      report.removed_area += own_area;
       continue;
     }
-    if (cut) ++report.clipped;
+    if (cut) {
+      ++report.clipped;
+      double left = 0.0;
+      for (const auto& piece : pieces) left += geometry::area(piece);
+      report.removed_area += own_area - left;
+    }
     for (auto& piece : pieces) {
       buckets[key].push_back(uint32_t(out.size()));
       planes.push_back(plane);
@@ -246,6 +252,8 @@ OverlapReport resolve_coincident_polygons(Scene& scene, bool keep) {
       std::vector<std::vector<Vec3>> pieces{out[e].vertices};
       for (const std::vector<Vec3>& later : found->second) subtract_from_each(pieces, later);
       ++(pieces.empty() ? report.dropped : report.clipped);
+      report.removed_area += geometry::area(out[e].vertices);
+      for (const auto& piece : pieces) report.removed_area -= geometry::area(piece);
       for (auto& piece : pieces)
         cut_out.push_back(Polygon{std::move(piece), out[e].material, out[e].origin});
     }

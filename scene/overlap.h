@@ -53,6 +53,7 @@ struct OverlapReport {
   int dropped = 0;            // polygons wholly covered by an earlier one or a contact (repair)
   int clipped = 0;            // polygons cut to the part outside one (repair)
   double overlap_area = 0.0;  // total area of the same-facing overlaps, m^2
+  double removed_area = 0.0;  // area the repair took from the scene, m^2 (the loader's account)
 };
 
 // Finds coincident overlapping polygons; removes same-facing overlaps and contacts unless `keep`.
