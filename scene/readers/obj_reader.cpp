@@ -7,6 +7,7 @@
 #include <set>
 
 #include "core/error.h"
+#include "core/limits.h"
 #include "core/log.h"
 #include "core/text.h"
 
@@ -134,10 +135,44 @@ void read_mtl(const std::string& path, Scene& scene, std::map<std::string, int>&
   }
 }
 
+// The number of face statements ('f' as the first word of a line) in the file: one pass over
+// its bytes, nothing stored, so the polygon limit is checked before any face is parsed or
+// stored (a 77 MB OBJ of 10^7 faces took 110 s and 4.5 GB before failing).
+double count_faces(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open file");
+  std::vector<char> block(1 << 16);
+  double faces = 0;
+  // 0: at the start of a line, before its first word; 1: read an 'f' as the first character
+  // of the first word; 2: elsewhere in the line.
+  int state = 0;
+  while (in.read(block.data(), std::streamsize(block.size())) || in.gcount() > 0) {
+    for (std::streamsize i = 0; i < in.gcount(); ++i) {
+      const char c = block[size_t(i)];
+      if (c == '\n') {
+        if (state == 1) ++faces;  // a line that is just "f"
+        state = 0;
+      } else if (state == 0) {
+        if (c == 'f')
+          state = 1;
+        else if (c != ' ' && c != '\t' && c != '\r')
+          state = 2;
+      } else if (state == 1) {
+        if (c == ' ' || c == '\t' || c == '\r') ++faces;
+        state = 2;
+      }
+    }
+  }
+  if (in.bad()) throw InputError(path + ": read error");
+  if (state == 1) ++faces;
+  return faces;
+}
+
 }  // namespace
 
 Scene read_obj(const std::string& path, const ObjOptions& options) {
   LineReader reader(path);
+  check_limit("polygons", count_faces(path), path + ": the OBJ's faces ('f' lines)");
   const fs::path folder = fs::path(path).parent_path();
   std::error_code ec;
   const fs::path given_root =
