@@ -241,13 +241,13 @@ Scene read_obj(const std::string& path, const ObjOptions& options) {
       for (size_t i = 1; i < tokens.size(); ++i) {
         // An absolute name replaces the folder (operator/): confined like a relative one.
         const fs::path lib = folder / std::string(tokens[i]);
+        if (!fs::is_regular_file(lib, ec))
+          reader.fail("'mtllib': material library '" + lib.string() +
+                      "' not found (or not a regular file)");
         if (!inside(fs::weakly_canonical(lib, ec), root))
           reader.fail("'mtllib': '" + lib.lexically_normal().string() +
                       "' lies outside the scene's folder " + root.string() +
                       " (to read it, name a folder that holds both with --mgf-include-root DIR)");
-        if (!fs::is_regular_file(lib, ec))
-          reader.fail("'mtllib': material library '" + lib.string() +
-                      "' not found (or not a regular file)");
         read_mtl(lib.string(), scene, by_name);
       }
     } else if (!ignored.count(key)) {
