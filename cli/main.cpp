@@ -62,9 +62,9 @@ int main(int argc, char** argv) {
     radlab::log::set_quiet(quiet);
     if (!limits.empty()) radlab::set_limits(limits);
     radlab::set_mgf_include_root(include_root);
-    // Before any subcommand runs: its callback reads the solver table.
-    radlab::load_plugins_from_environment();
-    for (const std::string& plugin : plugins) radlab::load_plugin(plugin);
+    // Loaded on the first use of the solver table, so a command that runs no solver (`radlab
+    // scenes`) cannot be broken by a bad plugin (solvers/plugin_loader.h).
+    radlab::request_plugins(plugins);
     radlab::cli::apply_threads(threads);
     radlab::kernels::check_kernel_environment();
     if (scalar_kernels) radlab::kernels::use_vector_kernels(false);

@@ -49,9 +49,16 @@ std::vector<FormFactorMethodInfo>& table() {
   return methods;
 }
 
+void (*methods_hook)() = nullptr;
+
 }  // namespace
 
+void set_form_factor_methods_hook(void (*before_use)()) {
+  methods_hook = before_use;
+}
+
 const std::vector<FormFactorMethodInfo>& form_factor_methods() {
+  if (methods_hook) methods_hook();
   return table();
 }
 

@@ -54,6 +54,11 @@ std::function<FormFactorMethodBuilder(ParamBag&)> configure_from_options() {
 
 // The built-in methods, then the registered ones, in registration order. Register before using
 // the table: registering may move its entries.
+// Called before the method table is first read: the plugin loader (solvers/plugin_loader.h, a
+// layer above) sets it, so that plugins named on the command line load where methods are used,
+// as they do where solvers are, and a command that uses neither loads none.
+void set_form_factor_methods_hook(void (*before_use)());
+
 const std::vector<FormFactorMethodInfo>& form_factor_methods();
 
 // Adds a method (a plugin's, solvers/plugin.h). Refused with an InputError (exit 3) when the name

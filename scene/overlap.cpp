@@ -1,6 +1,8 @@
 #include "scene/overlap.h"
 
 #include <algorithm>
+#include <boost/geometry.hpp>  // the strategies (box distances) the R*-tree's inserts need
+#include <boost/geometry/index/rtree.hpp>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -84,13 +86,22 @@ struct BucketKey {
   int64_t nx, ny, nz, d;
   bool operator==(const BucketKey&) const = default;
 };
-struct BucketHash {
-  size_t operator()(const BucketKey& k) const {
-    uint64_t h = 1469598103934665603ull;
-    for (int64_t v : {k.nx, k.ny, k.nz, k.d}) h = (h ^ uint64_t(v)) * 1099511628211ull;
-    return size_t(h);
-  }
-};
+
+// Where the polygons placed so far lie: their bounding boxes in an R-tree (Boost.Geometry), so a
+// polygon is compared only with those whose boxes meet its own, not with every earlier polygon
+// of its plane (quadratic on a tessellated floor: bench/bench_loading.cpp).
+namespace bg = boost::geometry;
+namespace bgi = boost::geometry::index;
+using BoxPoint = bg::model::point<double, 3, bg::cs::cartesian>;
+using Box = bg::model::box<BoxPoint>;
+using PlacedIndex = bgi::rtree<std::pair<Box, uint32_t>, bgi::rstar<16>>;
+
+Box bounds(const std::vector<Vec3>& v, double margin) {
+  Vec3 lo(v[0]), hi(v[0]);
+  for (const Vec3& p : v) lo = glm::min(lo, p), hi = glm::max(hi, p);
+  return {{lo.x - margin, lo.y - margin, lo.z - margin},
+          {hi.x + margin, hi.y + margin, hi.z + margin}};
+}
 
 // Each convex piece minus the convex polygon `b`, as convex pieces.
 void subtract_from_each(std::vector<std::vector<Vec3>>& pieces, const std::vector<Vec3>& b) {
@@ -115,9 +126,14 @@ OverlapReport resolve_coincident_polygons(Scene& scene, bool keep) {
   if (!(diagonal > 0)) return report;
   const double tolerance = kCoincidentTolerance * diagonal;
   // Buckets: the undirected normal quantised to 1e-3 and the offset to 1e-4 of the diagonal;
-  // coincident polygons land in the same or a neighbouring bucket.
+  // coincident polygons land in the same or a neighbouring bucket. Candidates are the earlier
+  // polygons in those buckets whose bounding boxes, widened by twice the coincidence tolerance
+  // (b is projected onto a's plane by at most the tolerance), meet the polygon's own: no other
+  // can overlap it. They are visited in the order of the all-pairs loop this replaced (bucket
+  // offset, then placement), so the repair's results are the same.
   const double normal_step = 1e-3, offset_step = 1e-4 * diagonal;
-  std::unordered_map<BucketKey, std::vector<uint32_t>, BucketHash> buckets;
+  PlacedIndex placed;
+  std::vector<BucketKey> keys;  // of each polygon in `out`
   auto key_of = [&](const Plane& plane) {
     Vec3 n = plane.normal;
     double d = plane.offset;
@@ -144,6 +160,8 @@ OverlapReport resolve_coincident_polygons(Scene& scene, bool keep) {
     return true;
   };
   char buffer[160];
+  std::vector<std::pair<Box, uint32_t>> hits;
+  std::vector<std::pair<int64_t, uint32_t>> candidates;  // (bucket offset, polygon in out)
   for (Polygon& polygon : scene.polygons) {
     const Vec3 n = geometry::unit_normal(polygon.vertices);
     const Plane plane{n, glm::dot(n, geometry::centroid(polygon.vertices))};
@@ -151,85 +169,96 @@ OverlapReport resolve_coincident_polygons(Scene& scene, bool keep) {
     const double own_area = geometry::area(polygon.vertices);
     std::vector<std::vector<Vec3>> pieces{polygon.vertices};
     bool cut = false;
-    for (int64_t dx = -1; dx <= 1; ++dx)
-      for (int64_t dy = -1; dy <= 1; ++dy)
-        for (int64_t dz = -1; dz <= 1; ++dz)
-          for (int64_t dd = -1; dd <= 1; ++dd) {
-            auto found = buckets.find({key.nx + dx, key.ny + dy, key.nz + dz, key.d + dd});
-            if (found == buckets.end()) continue;
-            for (uint32_t e : found->second) {
-              const Polygon& earlier = out[e];
-              if (!coincident(earlier, planes[e], polygon, plane)) continue;
-              const double shared = geometry::overlap_area(earlier.vertices, polygon.vertices);
-              if (!(shared > 1e-6 * std::min(own_area, geometry::area(earlier.vertices))))
-                continue;  // touching along an edge or at a corner
-              const bool same = glm::dot(planes[e].normal, plane.normal) > 0;
-              std::snprintf(buffer, sizeof buffer, " overlap by %.4g m^2 (%.3g%% of the later)",
-                            shared, 100.0 * shared / own_area);
-              // Opposite normals: the later polygon's distance in front of the earlier one
-              // decides. In front (face to face, each in front of the other) by more than
-              // rounding: a contact, such as a window frame resting on a sill; behind: a
-              // two-sided sheet; within rounding of each other the two cannot be told apart and
-              // the pair is kept as a sheet.
-              const double gap = glm::dot(
-                  geometry::centroid(polygon.vertices) - geometry::centroid(earlier.vertices),
-                  planes[e].normal);
-              const bool contact = !same && gap > kContactGap * diagonal;
-              if (!same)
-                std::snprintf(buffer + std::strlen(buffer), sizeof buffer - std::strlen(buffer),
-                              ", %.3g m apart", gap);
-              std::string what = describe(scene, earlier) + " and " + describe(scene, polygon) +
-                                 ": coincident " +
-                                 (same      ? "same-facing"
-                                  : contact ? "face-to-face"
-                                            : "back-to-back") +
-                                 " polygons" + buffer;
-              if (!same && !contact) {
-                ++report.back_to_back;
-                report.warnings.push_back(what + (gap > 0 ? "; kept (within rounding: a two-sided "
-                                                            "sheet or a contact)"
-                                                          : "; kept (a two-sided sheet)"));
-                continue;
-              }
-              if (contact) {
-                ++report.contacts;
-                report.contact_area += shared;
-                if (keep) {
-                  report.warnings.push_back(what + "; kept as they are (--keep-overlaps)");
-                  continue;
-                }
-                // Neither side of a contact sees anything but the other: light neither reaches
-                // it nor leaves it, and the rays cannot resolve a gap this small (they would see
-                // past the other polygon). Both lose the overlap; the earlier one below, once
-                // every polygon is placed.
-                contact_cuts[e].push_back(polygon.vertices);
-                subtract_from_each(pieces, earlier.vertices);
-                cut = true;
-                report.warnings.push_back(what + "; a contact: the overlap removed from both");
-                continue;
-              }
-              ++report.same_facing;
-              report.overlap_area += shared;
-              if (keep) {
-                report.warnings.push_back(what + "; kept as they are (--keep-overlaps)");
-                continue;
-              }
-              subtract_from_each(pieces, earlier.vertices);
-              cut = true;
-              report.warnings.push_back(what + (pieces.empty()
-                                                    ? "; the later one dropped (wholly covered)"
-                                                    : "; the later one cut to the " +
-                                                          std::to_string(pieces.size()) +
-                                                          " convex piece(s) outside the earlier"));
-            }
-          }
+    hits.clear();
+    placed.query(bgi::intersects(bounds(polygon.vertices, 2.0 * tolerance)),
+                 std::back_inserter(hits));
+    candidates.clear();
+    for (const auto& [box, e] : hits) {
+      const BucketKey& other = keys[e];
+      const int64_t dx = other.nx - key.nx, dy = other.ny - key.ny, dz = other.nz - key.nz,
+                    dd = other.d - key.d;
+      if (std::abs(dx) > 1 || std::abs(dy) > 1 || std::abs(dz) > 1 || std::abs(dd) > 1) continue;
+      candidates.emplace_back(((dx + 1) * 27 + (dy + 1) * 9 + (dz + 1) * 3 + (dd + 1)), e);
+    }
+    std::sort(candidates.begin(), candidates.end());
+    for (const auto& [offset, e] : candidates) {
+      const Polygon& earlier = out[e];
+      if (!coincident(earlier, planes[e], polygon, plane)) continue;
+      const double shared = geometry::overlap_area(earlier.vertices, polygon.vertices);
+      if (!(shared > 1e-6 * std::min(own_area, geometry::area(earlier.vertices))))
+        continue;  // touching along an edge or at a corner
+      const bool same = glm::dot(planes[e].normal, plane.normal) > 0;
+      std::snprintf(buffer, sizeof buffer, " overlap by %.4g m^2 (%.3g%% of the later)", shared,
+                    100.0 * shared / own_area);
+      // Opposite normals: the later polygon's distance in front of the earlier one
+      // decides. In front (face to face, each in front of the other) by more than
+      // rounding: a contact, such as a window frame resting on a sill; behind: a
+      // two-sided sheet; within rounding of each other the two cannot be told apart and
+      // the pair is kept as a sheet.
+      const double gap =
+          glm::dot(geometry::centroid(polygon.vertices) - geometry::centroid(earlier.vertices),
+                   planes[e].normal);
+      const bool contact = !same && gap > kContactGap * diagonal;
+      if (!same)
+        std::snprintf(buffer + std::strlen(buffer), sizeof buffer - std::strlen(buffer),
+                      ", %.3g m apart", gap);
+      std::string what = describe(scene, earlier) + " and " + describe(scene, polygon) +
+                         ": coincident " +
+                         (same      ? "same-facing"
+                          : contact ? "face-to-face"
+                                    : "back-to-back") +
+                         " polygons" + buffer;
+      if (!same && !contact) {
+        ++report.back_to_back;
+        report.warnings.push_back(what + (gap > 0 ? "; kept (within rounding: a two-sided "
+                                                    "sheet or a contact)"
+                                                  : "; kept (a two-sided sheet)"));
+        continue;
+      }
+      if (contact) {
+        ++report.contacts;
+        report.contact_area += shared;
+        if (keep) {
+          report.warnings.push_back(what + "; kept as they are (--keep-overlaps)");
+          continue;
+        }
+        // Neither side of a contact sees anything but the other: light neither reaches
+        // it nor leaves it, and the rays cannot resolve a gap this small (they would see
+        // past the other polygon). Both lose the overlap; the earlier one below, once
+        // every polygon is placed.
+        contact_cuts[e].push_back(polygon.vertices);
+        subtract_from_each(pieces, earlier.vertices);
+        cut = true;
+        report.warnings.push_back(what + "; a contact: the overlap removed from both");
+        continue;
+      }
+      ++report.same_facing;
+      report.overlap_area += shared;
+      if (keep) {
+        report.warnings.push_back(what + "; kept as they are (--keep-overlaps)");
+        continue;
+      }
+      subtract_from_each(pieces, earlier.vertices);
+      cut = true;
+      report.warnings.push_back(
+          what + (pieces.empty() ? "; the later one dropped (wholly covered)"
+                                 : "; the later one cut to the " + std::to_string(pieces.size()) +
+                                       " convex piece(s) outside the earlier"));
+    }
     if (pieces.empty()) {
       ++report.dropped;
+      report.removed_area += own_area;
       continue;
     }
-    if (cut) ++report.clipped;
+    if (cut) {
+      ++report.clipped;
+      double left = 0.0;
+      for (const auto& piece : pieces) left += geometry::area(piece);
+      report.removed_area += own_area - left;
+    }
     for (auto& piece : pieces) {
-      buckets[key].push_back(uint32_t(out.size()));
+      placed.insert({bounds(piece, 0.0), uint32_t(out.size())});
+      keys.push_back(key);
       planes.push_back(plane);
       out.push_back(Polygon{std::move(piece), polygon.material, polygon.origin});
     }
@@ -246,6 +275,8 @@ OverlapReport resolve_coincident_polygons(Scene& scene, bool keep) {
       std::vector<std::vector<Vec3>> pieces{out[e].vertices};
       for (const std::vector<Vec3>& later : found->second) subtract_from_each(pieces, later);
       ++(pieces.empty() ? report.dropped : report.clipped);
+      report.removed_area += geometry::area(out[e].vertices);
+      for (const auto& piece : pieces) report.removed_area -= geometry::area(piece);
       for (auto& piece : pieces)
         cut_out.push_back(Polygon{std::move(piece), out[e].material, out[e].origin});
     }

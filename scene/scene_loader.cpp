@@ -33,7 +33,9 @@ LoadedScene load_scene(const std::string& spec, bool print, bool keep_overlaps) 
     if ((extension == ".obj" || extension == ".mgf") && !std::filesystem::is_regular_file(spec, ec))
       throw InputError(spec + ": not a regular file");
     if (extension == ".obj") {
-      loaded.scene = read_obj(spec);
+      ObjOptions options;
+      options.include_root = include_root();
+      loaded.scene = read_obj(spec, options);
     } else if (extension == ".mgf") {
       MgfOptions options;
       options.print_warnings = print;

@@ -14,8 +14,9 @@ struct LoadedScene {
   ValidationReport report;
 };
 
-// The folder MGF includes must lie in (MgfOptions::include_root) for every later load_scene;
-// empty (the default): the folder of the scene file. The command line's --mgf-include-root.
+// The folder MGF includes and OBJ material libraries must lie in (MgfOptions::include_root,
+// ObjOptions::include_root) for every later load_scene; empty (the default): the folder of the
+// scene file. The command line's --mgf-include-root.
 void set_mgf_include_root(const std::string& folder);
 
 // Loads and validates; prints the validation warnings unless `print_warnings` is false. Scene

@@ -7,6 +7,7 @@
 #include "core/log.h"
 #include "core/text.h"
 #include "scene/geometry.h"
+#include "scene/triangulate.h"
 
 namespace radlab {
 namespace {
@@ -36,46 +37,12 @@ std::vector<Vec3> merge_repeated(const std::vector<Vec3>& v) {
   return out;
 }
 
-// Ear clipping in the polygon's own plane; for non-convex planar polygons.
-std::vector<std::vector<Vec3>> ear_clip(const std::vector<Vec3>& v) {
-  Vec3 n = geometry::unit_normal(v);
-  std::vector<size_t> idx(v.size());
-  for (size_t i = 0; i < v.size(); ++i) idx[i] = i;
-  std::vector<std::vector<Vec3>> triangles;
-  auto turn = [&](const Vec3& a, const Vec3& b, const Vec3& c) {
-    return glm::dot(glm::cross(b - a, c - b), n);
-  };
-  auto inside = [&](const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
-    return turn(a, b, p) >= 0 && turn(b, c, p) >= 0 && turn(c, a, p) >= 0;
-  };
-  size_t guard = 0;
-  while (idx.size() > 3 && guard++ < 10 * v.size() * v.size()) {
-    bool clipped = false;
-    for (size_t k = 0; k < idx.size(); ++k) {
-      size_t ia = idx[(k + idx.size() - 1) % idx.size()], ib = idx[k],
-             ic = idx[(k + 1) % idx.size()];
-      if (turn(v[ia], v[ib], v[ic]) <= 0) continue;
-      bool ear = true;
-      for (size_t m : idx)
-        if (m != ia && m != ib && m != ic && inside(v[m], v[ia], v[ib], v[ic])) {
-          ear = false;
-          break;
-        }
-      if (!ear) continue;
-      triangles.push_back({v[ia], v[ib], v[ic]});
-      idx.erase(idx.begin() + long(k));
-      clipped = true;
-      break;
-    }
-    if (!clipped) break;  // self-intersecting: give up on the rest
-  }
-  if (idx.size() == 3) triangles.push_back({v[idx[0]], v[idx[1]], v[idx[2]]});
-  return triangles;
-}
-
-// Splits a non-planar polygon into triangles; a quad along its shorter diagonal.
+// Splits a non-planar polygon into triangles: a quad along its shorter diagonal, a polygon that
+// is convex in projection as a fan from its first corner, any other by the constrained
+// triangulation of its projection (a fan would cover what lies outside it).
 std::vector<std::vector<Vec3>> split_non_planar(const std::vector<Vec3>& v) {
   std::vector<std::vector<Vec3>> out;
+  if (!geometry::is_convex(v)) return triangulate_polygon(v);
   if (v.size() == 4) {
     if (glm::distance(v[0], v[2]) <= glm::distance(v[1], v[3])) {
       out.push_back({v[0], v[1], v[2]});
@@ -151,11 +118,15 @@ ValidationReport validate_scene(Scene& scene, bool keep_overlaps) {
             std::abs(p.z) <= kMaxCoordinate))
         throw InputError(polygon.origin + ": polygon has a vertex coordinate that is not finite " +
                          "or beyond 1e12 m (areas and kernels would overflow)");
+    const double read = geometry::area(polygon.vertices);
+    report.area.read += read;
     std::vector<Vec3> v = merge_repeated(polygon.vertices);
     if (degenerate(v)) {
       report.warnings.push_back(polygon.origin + ": zero-area or degenerate polygon (" +
-                                std::to_string(polygon.vertices.size()) + " vertices) dropped");
+                                std::to_string(polygon.vertices.size()) + " vertices, " +
+                                text::format_double(read) + " m^2) dropped");
       ++report.dropped;
+      report.area.dropped += read;
       continue;
     }
     size_t first = 0, second = 0;
@@ -166,31 +137,59 @@ ValidationReport validate_scene(Scene& scene, bool keep_overlaps) {
     double defect = geometry::planarity_defect(v);
     double diameter = geometry::diameter(v);
     std::vector<std::vector<Vec3>> pieces;
+    std::string what;
     if (defect > kPlanarityTolerance * diameter) {
       pieces = split_non_planar(v);
-      report.warnings.push_back(
-          polygon.origin + ": non-planar polygon (off its plane by " + std::to_string(defect) +
-          " m, " + std::to_string(defect / diameter) + " of its size) split into triangles");
+      what = ": non-planar polygon (off its plane by " + std::to_string(defect) + " m, " +
+             std::to_string(defect / diameter) + " of its size) split into ";
     } else if (!geometry::is_convex(v)) {
-      pieces = ear_clip(v);
-      report.warnings.push_back(polygon.origin +
-                                ": non-convex polygon split into triangles by ear clipping");
+      pieces = triangulate_polygon(v);
+      what = ": non-convex polygon split into ";
     } else {
+      report.area.kept_before_overlaps += read;
       polygon.vertices = std::move(v);
       kept.push_back(std::move(polygon));
       continue;
     }
     ++report.triangulated;
-    for (auto& piece : pieces) {
-      if (degenerate(piece)) continue;
-      kept.push_back(Polygon{std::move(piece), polygon.material, polygon.origin});
+    std::erase_if(pieces, [](const std::vector<Vec3>& piece) { return degenerate(piece); });
+    // The pieces' areas projected on the polygon's plane add up to the polygon's (Newell's
+    // vector is additive over any subdivision, planar or not); a piece wound the wrong way
+    // subtracts. Differences beyond rounding are area the split lost (or invented).
+    const Vec3 normal = geometry::unit_normal(v);
+    double projected = 0.0, surface = 0.0;
+    for (const auto& piece : pieces) {
+      projected += 0.5 * glm::dot(geometry::newell_vector(piece), normal);
+      surface += geometry::area(piece);
     }
+    report.area.kept_before_overlaps += surface;
+    report.area.non_planar_surplus += surface - projected;
+    if (std::abs(projected - read) > kAreaTolerance * read) {
+      report.area.split_lost += read - projected;
+      report.warnings.push_back(polygon.origin + what + std::to_string(pieces.size()) +
+                                " triangles covering " + text::format_double(projected) +
+                                " of its " + text::format_double(read) + " m^2 (" +
+                                text::format_double(std::abs(read - projected)) + " m^2 " +
+                                (read > projected ? "lost)" : "more)"));
+    } else {
+      report.warnings.push_back(polygon.origin + what + std::to_string(pieces.size()) +
+                                " triangles");
+    }
+    for (auto& piece : pieces)
+      kept.push_back(Polygon{std::move(piece), polygon.material, polygon.origin});
   }
   scene.polygons = std::move(kept);
   if (!scene.polygons.empty()) {
     report.overlaps = resolve_coincident_polygons(scene, keep_overlaps);
     for (std::string& w : report.overlaps.warnings) report.warnings.push_back(std::move(w));
   }
+  report.area.overlaps_removed = report.overlaps.removed_area;
+  for (const Polygon& p : scene.polygons) report.area.kept += geometry::area(p.vertices);
+  if (std::abs(report.area.unaccounted()) > kAreaTolerance * report.area.read)
+    report.warnings.push_back(
+        scene.name + ": " + text::format_double(report.area.unaccounted()) + " m^2 of the " +
+        text::format_double(report.area.read) + " m^2 read is lost without a warning naming it (" +
+        text::format_double(report.area.kept) + " m^2 kept); please report this as a bug");
   if (scene.polygons.empty())
     throw InputError(scene.name + ": the scene has no usable polygons" +
                      (report.overlaps.dropped > 0

@@ -6,7 +6,8 @@
 // - fewer than 3 distinct vertices or zero area: the polygon is dropped with a warning naming it
 //   (MGF and OBJ exports often contain such slivers; they carry no area, so no light);
 // - non-planar beyond kPlanarityTolerance x diameter: split into triangles (each planar);
-// - planar but non-convex: split into triangles by ear clipping;
+// - planar but non-convex (a hole joined by a seam, a corner visited twice): split into triangles
+//   by a constrained Delaunay triangulation (scene/triangulate.h);
 // - coincident overlapping polygons (scene/overlap.h): same-facing overlaps removed
 //   from the later polygon and face-to-face contacts from both unless `keep_overlaps`,
 //   back-to-back ones reported.
@@ -33,11 +34,33 @@ inline constexpr size_t kMaxPolygonCorners = 512;
 inline constexpr double kMaxCoordinate = 1e12;
 inline constexpr double kMaxEmission = 1e30;
 
+// Relative difference between two areas that is rounding, not geometry: a split's triangles
+// against the polygon, the scene's area account below. Sums of ~10^5 doubles err by ~1e-12.
+inline constexpr double kAreaTolerance = 1e-9;
+
+// Where the area read went (m^2), checked on every load: what was read equals what is kept plus
+// what the warnings name as dropped, lost in a split or removed by the overlap repair, minus the
+// surplus of non-planar polygons' triangles over their projected (Newell) area. `unaccounted()`
+// beyond kAreaTolerance x `read` is a warning (a defect of the loader, not of the scene).
+struct AreaAccount {
+  double read = 0.0;                  // the readers' polygons, Newell area
+  double dropped = 0.0;               // degenerate polygons dropped (each named)
+  double split_lost = 0.0;            // triangulations that did not cover their polygon (named)
+  double non_planar_surplus = 0.0;    // split triangles' area above their projected area
+  double kept_before_overlaps = 0.0;  // after the splits, before the overlap repair
+  double overlaps_removed = 0.0;      // removed by the overlap repair (each named)
+  double kept = 0.0;                  // the validated scene
+  double unaccounted() const {
+    return read - dropped - split_lost + non_planar_surplus - overlaps_removed - kept;
+  }
+};
+
 struct ValidationReport {
   std::vector<std::string> warnings;
   int dropped = 0;         // degenerate polygons removed
   int triangulated = 0;    // non-planar or non-convex polygons split into triangles
   OverlapReport overlaps;  // coincident polygons found (and repaired unless kept)
+  AreaAccount area;
 };
 
 // Validates and repairs `scene` in place. Throws InputError for what cannot be repaired.

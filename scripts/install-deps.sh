@@ -9,6 +9,9 @@ packages=(
   libglm-dev libembree-dev libopenexr-dev libceres-dev libeigen3-dev libtbb-dev
   libcli11-dev libtomlplusplus-dev libpng-dev nlohmann-json3-dev
   libgtest-dev libbenchmark-dev clang-format
+  libcgal-dev  # scene/triangulate.cpp (header-only)
+  libboost-dev  # Boost.Geometry R-tree in scene/overlap.cpp (header-only)
+  libssl-dev  # SHA-256 of loaded plugins (solvers/plugin_loader.cpp)
   python3 python3-matplotlib python3-numpy python3-pandas
   snakemake  # workflow/Snakefile and its test (76 packages, 682 MB with python3-azure)
 )

@@ -1,14 +1,20 @@
 #include "solvers/plugin_loader.h"
 
 #include <dlfcn.h>
+#include <openssl/evp.h>
 
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <memory>
+#include <mutex>
 #include <system_error>
 
 #include "core/error.h"
+#include "core/log.h"
 #include "core/text.h"
+#include "formfactor/registry.h"
 #include "solvers/plugin.h"
 
 namespace radlab {
@@ -19,6 +25,30 @@ namespace fs = std::filesystem;
 std::vector<std::string>& loaded() {
   static std::vector<std::string> files;
   return files;
+}
+
+std::vector<PluginProvenance>& provenance() {
+  static std::vector<PluginProvenance> files;
+  return files;
+}
+
+struct Requested {
+  std::vector<std::string> files;
+  bool pending = false;
+};
+Requested& requested() {
+  static Requested r;
+  return r;
+}
+
+// True when `path` (canonical) lies inside `folder` (canonical).
+bool inside(const fs::path& path, const fs::path& folder) {
+  auto p = path.begin();
+  for (auto f = folder.begin(); f != folder.end(); ++f, ++p) {
+    if (f->empty()) continue;  // a trailing separator
+    if (p == path.end() || *p != *f) return false;
+  }
+  return true;
 }
 
 std::string version_text(int major, int minor, int patch) {
@@ -77,12 +107,15 @@ void load_plugin(const std::string& path) {
   const std::string mismatch = abi_mismatch(*theirs);
   if (!mismatch.empty())
     throw InputError("plugin " + path + ": " + mismatch + "; rebuild it against this radlab");
+  // Hashed before its code runs, so what is recorded is what was loaded.
+  const std::string digest = file_sha256(canonical);
   try {
     registration();
   } catch (const Error& e) {
     throw InputError("plugin " + path + ": " + e.what());
   }
   loaded().push_back(canonical);
+  provenance().push_back({canonical, digest});
 }
 
 std::vector<std::string> load_plugins_from_environment() {
@@ -91,11 +124,26 @@ std::vector<std::string> load_plugins_from_environment() {
   if (!value) return files;
   for (const std::string& entry : text::split(value, ':')) {
     if (entry.empty()) continue;
+    if (!fs::path(entry).is_absolute())
+      throw UsageError("RADLAB_PLUGIN_PATH: '" + entry +
+                       "' is a relative path (it would depend on the folder radlab runs in); "
+                       "give absolute paths");
     std::error_code ec;
     if (fs::is_directory(entry, ec)) {
+      const fs::path folder = fs::canonical(entry, ec);
       std::vector<std::string> in_folder;
-      for (const fs::directory_entry& file : fs::directory_iterator(entry, ec))
-        if (file.path().extension() == ".so") in_folder.push_back(file.path().string());
+      for (const fs::directory_entry& file : fs::directory_iterator(folder, ec)) {
+        if (file.path().extension() != ".so") continue;
+        std::error_code link_ec;
+        const fs::path target = fs::canonical(file.path(), link_ec);
+        if (link_ec || !inside(target, folder) || !fs::is_regular_file(target, link_ec)) {
+          log::warning("RADLAB_PLUGIN_PATH: " + file.path().string() +
+                       " skipped: not a regular file in " + folder.string() +
+                       " (a link to another place, or to nothing); name it by its own path");
+          continue;
+        }
+        in_folder.push_back(file.path().string());
+      }
       std::sort(in_folder.begin(), in_folder.end());
       files.insert(files.end(), in_folder.begin(), in_folder.end());
     } else if (fs::exists(entry, ec)) {
@@ -106,6 +154,50 @@ std::vector<std::string> load_plugins_from_environment() {
   }
   for (const std::string& file : files) load_plugin(file);
   return files;
+}
+
+void request_plugins(const std::vector<std::string>& files) {
+  requested().files = files;
+  requested().pending = true;
+  set_form_factor_methods_hook(&load_requested_plugins);  // methods load where they are used too
+}
+
+void load_requested_plugins() {
+  // Recursive: a plugin's registration may read the solver table, which calls this again.
+  static std::recursive_mutex mutex;
+  const std::lock_guard lock(mutex);
+  Requested& r = requested();
+  if (!r.pending) return;
+  r.pending = false;  // before loading: registering a plugin's solvers reads the table again
+  load_plugins_from_environment();
+  for (const std::string& file : r.files) load_plugin(file);
+}
+
+const std::vector<PluginProvenance>& loaded_plugin_provenance() {
+  return provenance();
+}
+
+std::string file_sha256(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open file to hash it");
+  const std::unique_ptr<EVP_MD_CTX, decltype(&EVP_MD_CTX_free)> context(EVP_MD_CTX_new(),
+                                                                        &EVP_MD_CTX_free);
+  if (!context || EVP_DigestInit_ex(context.get(), EVP_sha256(), nullptr) != 1)
+    throw InputError(path + ": SHA-256 unavailable (OpenSSL)");
+  std::vector<char> block(1 << 16);
+  while (in.read(block.data(), std::streamsize(block.size())) || in.gcount() > 0)
+    EVP_DigestUpdate(context.get(), block.data(), size_t(in.gcount()));
+  if (in.bad()) throw InputError(path + ": read error while hashing it");
+  unsigned char digest[EVP_MAX_MD_SIZE];
+  unsigned int length = 0;
+  EVP_DigestFinal_ex(context.get(), digest, &length);
+  static const char* hex = "0123456789abcdef";
+  std::string out;
+  for (unsigned int i = 0; i < length; ++i) {
+    out += hex[digest[i] >> 4];
+    out += hex[digest[i] & 15];
+  }
+  return out;
 }
 
 const std::vector<std::string>& loaded_plugins() {

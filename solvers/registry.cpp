@@ -5,6 +5,7 @@
 #include "core/error.h"
 #include "core/text.h"
 #include "solvers/flat/gathering.h"
+#include "solvers/plugin_loader.h"
 #include "solvers/solver_factories.h"
 
 namespace radlab {
@@ -62,6 +63,7 @@ std::vector<SolverInfo>& table() {
 }  // namespace
 
 const std::vector<SolverInfo>& solver_registry() {
+  load_requested_plugins();  // plugins load where solvers are used (solvers/plugin_loader.h)
   return table();
 }
 

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
 #include <functional>
 #include <memory>
 
@@ -102,6 +103,24 @@ uint64_t header_checksum(const Header& h, const std::string& key_text) {
   const uint64_t partial = hash_bytes(&h, offsetof(Header, header_checksum), 0xc0ffee);
   return hash_bytes(key_text.data(), key_text.size(), partial);
 }
+
+// The matrix file's header and key text, checked (magic, byte order, header checksum); empty
+// when the file is missing or not a valid cache file.
+std::string matrix_identity(const std::filesystem::path& matrix_file) {
+  std::ifstream in(matrix_file, std::ios::binary);
+  Header h{};
+  if (!in.read(reinterpret_cast<char*>(&h), sizeof h)) return {};
+  if (std::memcmp(h.magic, kMagic, sizeof kMagic) != 0 || h.byte_order != kByteOrderMark ||
+      h.key_text_bytes > (1u << 20))
+    return {};
+  std::string key_text(h.key_text_bytes, '\0');
+  if (!in.read(key_text.data(), std::streamsize(key_text.size()))) return {};
+  if (h.header_checksum != header_checksum(h, key_text)) return {};
+  return std::string(reinterpret_cast<const char*>(&h), sizeof h) + key_text;
+}
+
+constexpr char kSideMagic[8] = {'R', 'A', 'D', 'L', 'A', 'B', 'S', 'D'};
+constexpr uint64_t kSideSeed = 0x51de0f11e5ull;
 
 struct FileCloser {
   void operator()(std::FILE* f) const {
@@ -339,6 +358,56 @@ std::unique_ptr<FileLock> MatrixCache::lock(const MatrixCacheKey& key) const {
   std::filesystem::path file = path(key);
   file.replace_extension(".lock");
   return FileLock::acquire(file.string(), "the same form-factor matrix (" + file.string() + ")");
+}
+
+bool write_matrix_side_file(const std::filesystem::path& matrix_file, const std::string& suffix,
+                            const void* payload, size_t bytes) {
+  const std::string identity = matrix_identity(matrix_file);
+  if (identity.empty()) return false;
+  const uint64_t size = bytes;
+  std::string data(kSideMagic, sizeof kSideMagic);
+  data.append(reinterpret_cast<const char*>(&size), sizeof size);
+  data += identity;
+  data.append(static_cast<const char*>(payload), bytes);
+  const uint64_t checksum = hash_bytes(data.data(), data.size(), kSideSeed);
+  data.append(reinterpret_cast<const char*>(&checksum), sizeof checksum);
+  const std::filesystem::path target = matrix_file.string() + suffix;
+  const std::filesystem::path temporary = target.string() + ".tmp";
+  {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    out.write(data.data(), std::streamsize(data.size()));
+    if (!out) return false;
+  }
+  std::error_code ec;
+  std::filesystem::rename(temporary, target, ec);
+  return !ec;
+}
+
+std::optional<std::vector<char>> read_matrix_side_file(const std::filesystem::path& matrix_file,
+                                                       const std::string& suffix,
+                                                       size_t expected_bytes) {
+  const std::string identity = matrix_identity(matrix_file);
+  if (identity.empty()) return std::nullopt;
+  const std::filesystem::path side = matrix_file.string() + suffix;
+  std::error_code ec;
+  const uint64_t file_size = std::filesystem::file_size(side, ec);
+  const uint64_t expected_size =
+      sizeof kSideMagic + sizeof(uint64_t) + identity.size() + expected_bytes + sizeof(uint64_t);
+  if (ec || file_size != expected_size) return std::nullopt;  // missing, or not for this size
+  std::string data(size_t(file_size), '\0');
+  std::ifstream in(side, std::ios::binary);
+  if (!in.read(data.data(), std::streamsize(data.size()))) return std::nullopt;
+  uint64_t size = 0, checksum = 0;
+  std::memcpy(&size, data.data() + sizeof kSideMagic, sizeof size);
+  std::memcpy(&checksum, data.data() + data.size() - sizeof checksum, sizeof checksum);
+  const size_t body = data.size() - sizeof checksum;
+  if (std::memcmp(data.data(), kSideMagic, sizeof kSideMagic) != 0 || size != expected_bytes ||
+      data.compare(sizeof kSideMagic + sizeof size, identity.size(), identity) != 0 ||
+      hash_bytes(data.data(), body, kSideSeed) != checksum)
+    return std::nullopt;
+  const size_t start = sizeof kSideMagic + sizeof size + identity.size();
+  return std::vector<char>(data.begin() + std::ptrdiff_t(start),
+                           data.begin() + std::ptrdiff_t(start + expected_bytes));
 }
 
 }  // namespace radlab

@@ -33,6 +33,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "core/file_lock.h"
 #include "formfactor/matrix/matrix.h"
@@ -60,6 +61,20 @@ MatrixCacheKey matrix_cache_key(const Mesh& mesh, const std::string& method,
 // $RADLAB_CACHE_DIR, else $XDG_CACHE_HOME/radlab, else $HOME/.cache/radlab; empty when none of
 // these is set (then nothing is cached).
 std::filesystem::path default_cache_dir();
+
+// Side files beside a cached matrix (`<matrix file><suffix>`: raycast's ".sigma", the rows'
+// sampling errors and quadrature excesses): a magic, the payload size, the matrix file's own
+// 128-byte header and key text as they are when the side file is written, the payload, and a
+// checksum of all of it. A side file is read back only when that header and key are the matrix
+// file's current ones (the same key and the same build, whose payload checksum the header
+// holds), its size is the one expected and the checksum matches: a zeroed file, edited values,
+// or a file from another key or an earlier build of this one is not used (the caller recomputes
+// what it held). Written to a temporary and renamed; failures are silent (best effort).
+bool write_matrix_side_file(const std::filesystem::path& matrix_file, const std::string& suffix,
+                            const void* payload, size_t bytes);
+std::optional<std::vector<char>> read_matrix_side_file(const std::filesystem::path& matrix_file,
+                                                       const std::string& suffix,
+                                                       size_t expected_bytes);
 
 class MatrixCache {
  public:

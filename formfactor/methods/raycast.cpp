@@ -14,6 +14,7 @@
 #include "formfactor/integrate/contour_integral.h"
 #include "formfactor/integrate/pair_geometry.h"
 #include "formfactor/integrate/polygon_integral.h"
+#include "formfactor/matrix/matrix_cache.h"
 #include "formfactor/methods/method_infos.h"
 #include "scene/geometry.h"
 
@@ -418,25 +419,19 @@ void save_row_sampling_errors(const RaycastFormFactors& method, const std::strin
   std::vector<float> data = method.row_sampling_errors();
   const std::vector<float> excess = method.row_quadrature_excesses();
   data.insert(data.end(), excess.begin(), excess.end());
-  const std::string temporary = matrix_file + ".sigma.tmp";
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    out.write(reinterpret_cast<const char*>(data.data()), std::streamsize(data.size() * 4));
-    if (!out) return;  // best effort: without it the check recomputes rows
-  }
-  std::error_code ignored;
-  std::filesystem::rename(temporary, matrix_file + ".sigma", ignored);
+  // Best effort: without it the check recomputes rows. Bound to the matrix file's header and key,
+  // with a checksum (formfactor/matrix/matrix_cache.h).
+  write_matrix_side_file(matrix_file, ".sigma", data.data(), data.size() * sizeof(float));
 }
 
 bool load_row_sampling_errors(const RaycastFormFactors& method, const std::string& matrix_file,
                               size_t n) {
-  std::ifstream in(matrix_file + ".sigma", std::ios::binary);
-  if (!in) return false;
+  // Another matrix, another size, an earlier build or a damaged file: not used, the check
+  // recomputes the rows it needs.
+  const auto bytes = read_matrix_side_file(matrix_file, ".sigma", 2 * n * sizeof(float));
+  if (!bytes) return false;
   std::vector<float> data(2 * n);
-  in.read(reinterpret_cast<char*>(data.data()), std::streamsize(2 * n * 4));
-  // The wrong size (another matrix, or the sampling errors alone as written before the excesses
-  // were kept): not used, the check recomputes the rows it needs.
-  if (!in || in.peek() != std::char_traits<char>::eof()) return false;
+  std::memcpy(data.data(), bytes->data(), bytes->size());
   for (float s : data)
     if (!(s >= 0.0f) && !std::isnan(s)) return false;  // negative or infinite: not ours
   method.set_row_quadrature_excesses(

@@ -149,10 +149,12 @@ class RaycastFormFactors final : public FormFactorMethod {
 };
 
 // Each row's visibility sampling error and quadrature excess beside a cached matrix file
-// (`matrix_file` + ".sigma": 2n floats, the n errors then the n excesses, written to a temporary
-// name and renamed). load_ returns false (and changes nothing)
-// when the file is missing, of the wrong size or unreadable: the rows are then recomputed when
-// the check needs them.
+// (`matrix_file` + ".sigma": 2n floats, the n errors then the n excesses, behind the matrix
+// file's header and key and under a checksum: write_matrix_side_file in
+// formfactor/matrix/matrix_cache.h). Saved only beside a valid cache file. load_ returns false
+// (and changes nothing) when the file is missing, of the wrong size, unreadable, damaged, or
+// written beside another matrix or an earlier build: the rows are then recomputed when the
+// check needs them.
 void save_row_sampling_errors(const RaycastFormFactors& method, const std::string& matrix_file);
 bool load_row_sampling_errors(const RaycastFormFactors& method, const std::string& matrix_file,
                               size_t n);

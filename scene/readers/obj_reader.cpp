@@ -7,11 +7,36 @@
 #include <set>
 
 #include "core/error.h"
+#include "core/limits.h"
 #include "core/log.h"
 #include "core/text.h"
 
 namespace radlab {
 namespace {
+
+namespace fs = std::filesystem;
+
+// At most 12 characters of a word radlab did not understand, non-printable bytes as '?': enough
+// to find a misspelt key, too little to disclose a file named by mistake (or on purpose).
+std::string shown(std::string_view word) {
+  std::string out;
+  for (char c : word.substr(0, 12)) {
+    const auto u = static_cast<unsigned char>(c);
+    out += (u >= 0x20 && u < 0x7f) ? c : '?';
+  }
+  if (word.size() > 12) out += "...";
+  return out;
+}
+
+// True when `path` (canonical) lies inside `root` (canonical).
+bool inside(const fs::path& path, const fs::path& root) {
+  auto p = path.begin();
+  for (auto r = root.begin(); r != root.end(); ++r, ++p) {
+    if (r->empty()) continue;  // a trailing separator
+    if (p == path.end() || *p != *r) return false;
+  }
+  return true;
+}
 
 struct LineReader {
   explicit LineReader(const std::string& file) : path(file) {
@@ -49,8 +74,7 @@ Rgb parse_rgb(const LineReader& reader, const std::vector<std::string_view>& tok
   for (size_t i = 1; i < tokens.size(); ++i) {
     auto v = text::parse_double(tokens[i]);
     if (!v)
-      reader.fail("'" + std::string(tokens[0]) + "': '" + std::string(tokens[i]) +
-                  "' is not a number");
+      reader.fail("'" + std::string(tokens[0]) + "': '" + shown(tokens[i]) + "' is not a number");
     c[int(i - 1)] = *v;
   }
   if (tokens.size() == 2) c = Rgb(c.x);
@@ -66,6 +90,9 @@ bool known_mtl_key(std::string_view key) {
   return known.count(key) || text::starts_with(key, "map_");
 }
 
+// Unknown MTL keys warned about per file; more are ignored silently.
+constexpr size_t kMaxUnknownKeys = 8;
+
 void read_mtl(const std::string& path, Scene& scene, std::map<std::string, int>& by_name) {
   LineReader reader(path);
   std::string line;
@@ -75,6 +102,10 @@ void read_mtl(const std::string& path, Scene& scene, std::map<std::string, int>&
     auto tokens = text::split_whitespace(line);
     if (tokens.empty() || tokens[0].front() == '#') continue;
     const std::string_view key = tokens[0];
+    // Anything but a material first: not a material library (a path that named the wrong file);
+    // refused without showing what it holds.
+    if (current < 0 && key != "newmtl")
+      reader.fail("not a material library (its first statement is not 'newmtl')");
     if (key == "newmtl") {
       if (tokens.size() < 2) reader.fail("'newmtl' needs a name");
       std::string name(text::trim(std::string_view(line).substr(line.find("newmtl") + 6)));
@@ -83,7 +114,6 @@ void read_mtl(const std::string& path, Scene& scene, std::map<std::string, int>&
       current = int(scene.materials.size() - 1);
       by_name[name] = current;
     } else if (key == "Kd" || key == "Ke") {
-      if (current < 0) reader.fail("'" + std::string(key) + "' before any 'newmtl'");
       Rgb c = parse_rgb(reader, tokens);
       Material& m = scene.materials[size_t(current)];
       (key == "Kd" ? m.reflectance : m.emission) = c;
@@ -93,23 +123,62 @@ void read_mtl(const std::string& path, Scene& scene, std::map<std::string, int>&
       if (key == "Ke" && !(c.x >= 0 && c.y >= 0 && c.z >= 0 && std::isfinite(c.x) &&
                            std::isfinite(c.y) && std::isfinite(c.z)))
         reader.fail("material '" + m.name + "': Ke (emission) must be finite and >= 0");
-    } else if (!known_mtl_key(key) && warned.insert(std::string(key)).second) {
+    } else if (!known_mtl_key(key) && warned.size() < kMaxUnknownKeys &&
+               warned.insert(std::string(key)).second) {
       // Everything else known (Ka, Ks, Ns, Ni, d, Tr, illum, map_*, ...) does not affect
       // diffuse radiosity. An unknown key is most likely a misspelling (MTL keys are
       // case-sensitive: `kd` is not `Kd`, and a material without Kd is black): named, once per
       // key and file.
       log::warning(path + ":" + std::to_string(reader.number) + ": unknown MTL statement '" +
-                   std::string(key).substr(0, 24) +
-                   "' ignored (keys are case-sensitive; radlab reads Kd and Ke)");
+                   shown(key) + "' ignored (keys are case-sensitive; radlab reads Kd and Ke)");
     }
   }
 }
 
+// The number of face statements ('f' as the first word of a line) in the file: one pass over
+// its bytes, nothing stored, so the polygon limit is checked before any face is parsed or
+// stored (a 77 MB OBJ of 10^7 faces took 110 s and 4.5 GB before failing).
+double count_faces(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open file");
+  std::vector<char> block(1 << 16);
+  double faces = 0;
+  // 0: at the start of a line, before its first word; 1: read an 'f' as the first character
+  // of the first word; 2: elsewhere in the line.
+  int state = 0;
+  while (in.read(block.data(), std::streamsize(block.size())) || in.gcount() > 0) {
+    for (std::streamsize i = 0; i < in.gcount(); ++i) {
+      const char c = block[size_t(i)];
+      if (c == '\n') {
+        if (state == 1) ++faces;  // a line that is just "f"
+        state = 0;
+      } else if (state == 0) {
+        if (c == 'f')
+          state = 1;
+        else if (c != ' ' && c != '\t' && c != '\r')
+          state = 2;
+      } else if (state == 1) {
+        if (c == ' ' || c == '\t' || c == '\r') ++faces;
+        state = 2;
+      }
+    }
+  }
+  if (in.bad()) throw InputError(path + ": read error");
+  if (state == 1) ++faces;
+  return faces;
+}
+
 }  // namespace
 
-Scene read_obj(const std::string& path) {
+Scene read_obj(const std::string& path, const ObjOptions& options) {
   LineReader reader(path);
-  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+  check_limit("polygons", count_faces(path), path + ": the OBJ's faces ('f' lines)");
+  const fs::path folder = fs::path(path).parent_path();
+  std::error_code ec;
+  const fs::path given_root =
+      options.include_root.empty() ? folder : fs::path(options.include_root);
+  const fs::path root = fs::weakly_canonical(given_root.empty() ? fs::path(".") : given_root, ec);
+  if (ec) throw InputError(given_root.string() + ": cannot resolve the material library folder");
   Scene scene;
   scene.name = path;
   std::map<std::string, int> by_name;
@@ -170,10 +239,15 @@ Scene read_obj(const std::string& path) {
     } else if (key == "mtllib") {
       if (tokens.size() < 2) reader.fail("'mtllib' needs a file name");
       for (size_t i = 1; i < tokens.size(); ++i) {
-        std::filesystem::path lib = folder / std::string(tokens[i]);
-        if (!std::filesystem::is_regular_file(lib))
+        // An absolute name replaces the folder (operator/): confined like a relative one.
+        const fs::path lib = folder / std::string(tokens[i]);
+        if (!fs::is_regular_file(lib, ec))
           reader.fail("'mtllib': material library '" + lib.string() +
                       "' not found (or not a regular file)");
+        if (!inside(fs::weakly_canonical(lib, ec), root))
+          reader.fail("'mtllib': '" + lib.lexically_normal().string() +
+                      "' lies outside the scene's folder " + root.string() +
+                      " (to read it, name a folder that holds both with --mgf-include-root DIR)");
         read_mtl(lib.string(), scene, by_name);
       }
     } else if (!ignored.count(key)) {

@@ -134,7 +134,7 @@ TEST(Validation, SlightlyNonPlanarWithinToleranceIsKept) {
   EXPECT_TRUE(report.warnings.empty());
 }
 
-TEST(Validation, NonConvexPolygonIsEarClippedPreservingArea) {
+TEST(Validation, NonConvexPolygonIsSplitPreservingArea) {
   // An L shape of area 3.
   std::vector<Vec3> l = {{0, 0, 0}, {2, 0, 0}, {2, 1, 0}, {1, 1, 0}, {1, 2, 0}, {0, 2, 0}};
   Scene scene = testing::scene_of({l});

@@ -4,10 +4,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <glm/geometric.hpp>
 
 #include "formfactor/integrate/point_polygon.h"
 #include "formfactor/matrix/matrix.h"
+#include "formfactor/matrix/matrix_cache.h"
 #include "formfactor/methods/raycast.h"
 #include "formfactor/visibility/sampling.h"
 #include "scene/mesh.h"
@@ -155,7 +158,7 @@ TEST(RowSamplingError, SameFromTheBuildTheRowAloneAndTheCacheFile) {
   const Mesh mesh = build_mesh(loaded.scene, {});
   const RaycastFormFactors built(loaded.scene, mesh, {});
   BuildReport report;
-  build_matrix(built, mesh.size(), Precision::kFloat, report);
+  const FormFactorMatrix matrix = build_matrix(built, mesh.size(), Precision::kFloat, report);
   const std::vector<float> sigma = built.row_sampling_errors();
   ASSERT_EQ(sigma.size(), mesh.size());
   size_t positive = 0;
@@ -167,12 +170,46 @@ TEST(RowSamplingError, SameFromTheBuildTheRowAloneAndTheCacheFile) {
   const RaycastFormFactors alone(loaded.scene, mesh, {});
   for (size_t i = 0; i < mesh.size(); i += 3) EXPECT_EQ(alone.row_sampling_error(i), sigma[i]);
   testing::TempDir dir;
-  const std::string file = dir.file("matrix.ffm");
+  const MatrixCache cache(dir.path());
+  const MatrixCacheKey key = matrix_cache_key(mesh, "raycast", "", Precision::kFloat);
+  ASSERT_TRUE(cache.store(key, matrix, report));
+  const std::string file = cache.path(key).string();
   save_row_sampling_errors(built, file);
   const RaycastFormFactors restored(loaded.scene, mesh, {});
   EXPECT_FALSE(load_row_sampling_errors(restored, file, mesh.size() + 1));  // wrong size
   ASSERT_TRUE(load_row_sampling_errors(restored, file, mesh.size()));
   EXPECT_EQ(restored.row_sampling_errors(), sigma);
+
+  // The side file is bound to its matrix file and checksummed (issue 36.8): each of these was
+  // accepted when it held 2n bare floats. A zeroed file (every row's error 0: the row-sum check
+  // then fails a good matrix as unphysical), one value edited to 1e30 (turns the check off), a
+  // file beside another matrix (copied from another key), one beside a rebuilt matrix.
+  const std::string side = file + ".sigma";
+  const auto size = std::filesystem::file_size(side);
+  const auto refused = [&] {
+    const RaycastFormFactors fresh(loaded.scene, mesh, {});
+    return !load_row_sampling_errors(fresh, file, mesh.size());
+  };
+  std::ofstream(side, std::ios::binary) << std::string(size, '\0');
+  EXPECT_TRUE(refused()) << "zeroed";
+  save_row_sampling_errors(built, file);
+  {
+    std::fstream edit(side, std::ios::binary | std::ios::in | std::ios::out);
+    edit.seekp(std::streamoff(size) - 8 - 4 * std::streamoff(mesh.size()) - 4);
+    const float huge = 1e30f;
+    edit.write(reinterpret_cast<const char*>(&huge), sizeof huge);
+  }
+  EXPECT_TRUE(refused()) << "a value edited";
+  save_row_sampling_errors(built, file);
+  const MatrixCacheKey other = matrix_cache_key(mesh, "raycast", "rays=32", Precision::kFloat);
+  ASSERT_TRUE(cache.store(other, matrix, report));
+  std::filesystem::copy_file(side, cache.path(other).string() + ".sigma");
+  EXPECT_FALSE(load_row_sampling_errors(restored, cache.path(other).string(), mesh.size()))
+      << "another key's";
+  BuildReport rebuilt = report;
+  rebuilt.seconds += 1.0;  // the same key built again: another header
+  ASSERT_TRUE(cache.store(key, matrix, rebuilt));
+  EXPECT_TRUE(refused()) << "an earlier build's";
 }
 
 }  // namespace

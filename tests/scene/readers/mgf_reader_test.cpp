@@ -533,17 +533,21 @@ const SharedScene kShared[] = {
     {"office2/office2.mgf", 422, 430, 0, 8, 1, 50},
     {"corridor.mgf", 483, 489, 0, 2, 57, 9},
     {"salon/classroom.mgf", 5250, 5826, 0, 576, 24, 631},
-    {"office3/office.mgf", 12463, 12583, 0, 7, 130, 35},
-    {"office1/graz.mgf", 13796, 14066, 0, 142, 8, 66},
+    {"office3/office.mgf", 12463, 12592, 0, 7, 130, 35},
+    {"office1/graz.mgf", 13796, 14064, 0, 142, 8, 66},
     // 12,259: 12,235 until geometry::area summed edge vectors instead of Newell's products of
     // corners (the loader's area thresholds then saw the true areas of some tiny pieces: 12,219),
     // then face-to-face contacts (window frames on their sills) removed from both sides, which
     // cuts the sills and walls into more pieces. graz.mgf and soda.mgf gain pieces the same way.
-    {"hospital/hosp.mgf", 22271, 12259, 0, 312, 44, 164},
-    {"soda.mgf", 53099, 53207, 0, 10, 640, 81},
+    // 12,530 since non-convex faces are split by a constrained Delaunay triangulation (issue
+    // 36.1): the ear clipper had kept nothing or part of 43 faces (counter.mgf:230, 0.88 of its
+    // 2.13 m^2), and other triangles cut differently around overlaps. office3 (its wall with a
+    // window, office.mgf:41), soda (soda.mgf:983) and graz (other triangles) moved the same way.
+    {"hospital/hosp.mgf", 22271, 12530, 0, 312, 44, 164},
+    {"soda.mgf", 53099, 53216, 0, 10, 640, 81},
     // The hospital with each piece of furniture once (hosp.mgf includes them twice; the loader
     // now removes the second copy, so both load as about the same 12,2xx polygons).
-    {"hospital/structure.mgf", 11230, 12255, 0, 167, 44, 85},
+    {"hospital/structure.mgf", 11230, 12526, 0, 167, 44, 85},
     {"examp1.mgf", 198, 198, 0, 0, 32, 4},
     {"floor_gloss.mgf", 136, 136, 0, 0, 1, 4},
 };
@@ -574,6 +578,20 @@ TEST_P(SharedMgfScene, LoadsWithTheDocumentedCounts) {
   EXPECT_EQ(loaded.report.triangulated, GetParam().split);
   EXPECT_EQ(loaded.scene.emitter_count(), GetParam().emitters);
   EXPECT_EQ(loaded.scene.materials.size(), GetParam().materials);
+  // The loader's area account (issue 36.1): every square metre read is kept or named by a
+  // warning. Splits lose nothing (office3/office.mgf:41, a wall with a window joined by a seam,
+  // lost 7.73 m^2 to the ear clipper while the counts said 0 dropped); what the overlap repair
+  // removes is the sum of what its warnings name. kAreaTolerance is rounding (1e-9 relative).
+  const AreaAccount& area = loaded.report.area;
+  EXPECT_EQ(area.split_lost, 0.0);
+  EXPECT_NEAR(area.unaccounted(), 0.0, kAreaTolerance * area.read);
+  double kept = 0.0;
+  for (const Polygon& p : loaded.scene.polygons) kept += geometry::area(p.vertices);
+  EXPECT_NEAR(area.kept, kept, kAreaTolerance * area.read);
+  // The reader's polygons' area, summed independently of the loader.
+  double read = 0.0;
+  for (const Polygon& p : raw.polygons) read += geometry::area(p.vertices);
+  EXPECT_NEAR(area.read, read, kAreaTolerance * read);
   for (const Material& m : loaded.scene.materials)
     for (int k = 0; k < 3; ++k) {
       EXPECT_GE(m.reflectance[k], 0.0) << m.name;
