@@ -165,10 +165,8 @@ void write_run_result(JsonWriter& json, const Budget& budget, const RunResult& r
   json.end_object();
 }
 
-void write_solver_statistics(JsonWriter& json, const Solver& solver, const Problem* problem) {
-  auto statistics = solver.statistics();
-  if (problem)
-    for (auto& entry : final_system_statistics(*problem, solver)) statistics.push_back(entry);
+void write_solver_statistics(JsonWriter& json,
+                             const std::vector<std::pair<std::string, double>>& statistics) {
   if (statistics.empty()) return;
   json.key("solver_statistics").begin_object();
   for (const auto& [key, value] : statistics) json.field(key, value);

@@ -13,11 +13,18 @@
 
 namespace radlab {
 
-void Budget::validate() const {
-  if ((steps && *steps < 1) || (rows && *rows < 1) ||
-      (seconds && !(*seconds > 0 && std::isfinite(*seconds))) || (tol && !(*tol > 0 && *tol < 1)))
-    throw UsageError(
-        "run budget: steps and rows must be >= 1, seconds finite and > 0, tol in (0,1)");
+std::optional<BudgetViolation> budget_violation(const Budget& budget) {
+  if (budget.steps && *budget.steps < 1)
+    return BudgetViolation{"steps", "must be >= 1", std::to_string(*budget.steps)};
+  if (budget.rows && *budget.rows < 1)
+    return BudgetViolation{"rows", "must be >= 1", std::to_string(*budget.rows)};
+  if (budget.seconds && !(*budget.seconds > 0 && std::isfinite(*budget.seconds)))
+    return BudgetViolation{"seconds", "must be a finite number > 0",
+                           text::format_double(*budget.seconds)};
+  if (budget.tol && !(*budget.tol > 0 && *budget.tol < 1))
+    return BudgetViolation{"tol", "must lie in (0,1) (a bound relative to max B*)",
+                           text::format_double(*budget.tol)};
+  return std::nullopt;
 }
 
 const char* Budget::exhausted(long long step, unsigned long long rows_used,
@@ -243,9 +250,7 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
                      TraceWriter* trace, const CheckpointHook& hook) {
   const System& system = *problem.system;
   Budget budget = budget_in;
-  // Callers validate with the user's words (file:line, option name); this is the last guard
-  // against a budget that can never be reached, which would run forever.
-  budget.validate();
+  // The budget was validated where the run's request was built (budget_violation).
   if (budget.tol && !problem.reference)
     throw UsageError("--tol needs the reference (it bounds the error with its certificate)");
   // Never run unbounded: a tolerance alone is capped at 1000 sweeps' worth of rows, and

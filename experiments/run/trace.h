@@ -38,10 +38,15 @@ class TraceWriter {
   void flush() { csv_.flush(); }
   // Closes, checks and renames the file into place (core/csv.h); throws InputError on
   // failure.
-  void close() { csv_.close(); }
+  void close() {
+    closed_ = true;  // a failure to close is not retried
+    csv_.close();
+  }
+  bool closed() const { return closed_; }
 
  private:
   CsvWriter csv_;
+  bool closed_ = false;
 };
 
 }  // namespace radlab
