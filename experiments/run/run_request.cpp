@@ -61,9 +61,9 @@ RunOutcome run_prepared(const RunRequest& request, const Problem& problem,
   TraceWriter* trace = owned_trace ? owned_trace.get() : outputs.trace_sink;
   outcome.result = run_solver(*outcome.solver, problem, request.budget, request.schedule,
                               request.labels, trace, request.hook);
-  outcome.statistics = outcome.solver->statistics();
+  // On two levels, adaptive-shooting's final system, certified on the evaluation mesh.
   for (auto& entry : final_system_statistics(problem, *outcome.solver))
-    outcome.statistics.push_back(entry);
+    outcome.result.statistics.push_back(entry);
 
   if (!outputs.radiosity.empty()) {
     write_radiosity_csv(outputs.radiosity, problem.mesh, outcome.solver->solution());
@@ -81,7 +81,7 @@ RunOutcome run_prepared(const RunRequest& request, const Problem& problem,
     JsonWriter json;
     begin_run_json(json, request, &problem, &request.solver_parameters.values());
     write_run_result(json, request.budget, outcome.result);
-    write_solver_statistics(json, outcome.statistics);
+    write_solver_statistics(json, outcome.result.statistics);
     json.end_object();
     json.save(outputs.json);
     if (outputs.announce) log::info("wrote " + outputs.json);

@@ -69,9 +69,6 @@ struct RunOutcome {
   std::unique_ptr<Solver> solver;
   std::unique_ptr<Problem> owned_problem;
   const Problem* problem = nullptr;
-  // Solver::statistics(), and for adaptive-shooting on two levels its final system's figures
-  // (final_system_statistics): what run.json's solver_statistics holds.
-  std::vector<std::pair<std::string, double>> statistics;
 };
 
 // The problem of a request, prepared with its reference choice: `none` and `hierarchical-fine`

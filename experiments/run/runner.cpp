@@ -128,59 +128,42 @@ class Evaluator {
     std::vector<int> fields = {kMeanOfChannels};
     if (channels == 3) fields.insert(fields.end(), {0, 1, 2});
     const char* names[] = {"r", "g", "b"};
+    const std::string statistics = statistics_field(solver.statistics());
     for (int field : fields) {
-      TraceRow row;
-      row.run_id = labels_.run_id;
-      row.scene = labels_.scene;
-      row.solver = labels_.solver;
-      row.params = labels_.params;
-      row.channel = field == kMeanOfChannels ? "mean" : names[field];
-      row.step = step;
-      row.ff_rows = rows;
-      row.seconds = seconds;
-      row.rays = rays;
-      row.pair_evals = pair_evals;
-      row.reference_kind = problem_.reference ? problem_.reference->kind : "none";
-      row.solver_elements =
-          solver.solver_elements() > 0 ? solver.solver_elements() : problem_.system->size();
-      const double nan = std::nan("");
-      ErrorMetrics e, d;
-      ReflectedRms reflected;
+      TraceCheckpoint row{.labels = labels_,
+                          .problem = problem_,
+                          .solver = solver,
+                          .field = field,
+                          .channel = field == kMeanOfChannels ? "mean" : names[field],
+                          .step = step,
+                          .ff_rows = rows,
+                          .rays = rays,
+                          .pair_evals = pair_evals,
+                          .seconds = seconds,
+                          .B = B,
+                          .unshot = unshot,
+                          .measured = problem_.reference.has_value(),
+                          .errors = {},
+                          .display = {},
+                          .reflected = {},
+                          .residual_inf = std::nan(""),
+                          .bound_inf = std::nan(""),
+                          .statistics = statistics};
       if (problem_.reference) {
-        e = compare(B, problem_.reference->B, area, field);
-        d = compare(display, problem_.reference->B, area, field);
-        reflected =
+        row.errors = compare(B, problem_.reference->B, area, field);
+        row.display = compare(display, problem_.reference->B, area, field);
+        row.reflected =
             compare_reflected(B, problem_.reference->B, problem_.system->emission(), area, field);
       }
-      auto or_nan = [&](double v) { return problem_.reference ? v : nan; };
-      row.rms = or_nan(e.rms);
-      row.rms_rel = or_nan(e.rms_rel);
-      row.p_mean = or_nan(e.p_mean);
-      row.p_rms = or_nan(e.p_rms);
-      row.p_max = or_nan(e.p_max);
-      row.p_over = or_nan(e.p_over);
-      row.p_under = or_nan(e.p_under);
-      row.p_excluded = e.p_excluded;
-      row.rms_display = or_nan(d.rms);
-      row.rms_rel_display = or_nan(d.rms_rel);
-      row.p_mean_display = or_nan(d.p_mean);
-      row.p_rms_display = or_nan(d.p_rms);
-      row.p_max_display = or_nan(d.p_max);
-      row.rms_reflected = or_nan(reflected.rms);
-      row.rms_rel_reflected = or_nan(reflected.rms_rel);
       if (!residual.empty()) {
         row.residual_inf = field == kMeanOfChannels ? worst_residual : residual[size_t(field)];
         row.bound_inf = row.residual_inf * inverse_norm;
-      } else {
-        row.residual_inf = row.bound_inf = nan;
       }
-      row.unshot_power = unshot ? total_power(*unshot, area, field) : nan;
-      row.total_power = total_power(B, area, field);
       if (trace_) trace_->write(row);
       if (field == kMeanOfChannels) {
-        result.final_errors = e;
-        result.final_display_errors = d;
-        result.final_reflected = reflected;
+        result.final_errors = row.errors;
+        result.final_display_errors = row.display;
+        result.final_reflected = row.reflected;
       }
     }
     const double bound = residual.empty() ? std::nan("") : worst_residual * inverse_norm;
@@ -345,6 +328,7 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
   result.final_bound_relative = bound;
   result.final_bound_relative_reflected = bound * scale;
   result.tolerance_of_reflected = budget.tol_of_reflected;
+  result.statistics = solver.statistics();
   if (budget.tol) {
     result.tolerance_asked = true;
     result.tolerance_reached = bound <= *budget.tol;

@@ -91,6 +91,10 @@ struct RunResult {
   bool tolerance_reached = false;
   // "tolerance 1e-10 not reached: ..." when asked and not reached, else empty.
   std::string tolerance_message;
+  // The solver's own counters at the end (Solver::statistics(): links, rays, refinements ...),
+  // and what execute_run adds (adaptive-shooting's final system on two levels): run.json's
+  // solver_statistics and the summary's solver_statistics column.
+  std::vector<std::pair<std::string, double>> statistics;
 };
 
 // Called at every checkpoint after the metrics are written (e.g. to save images).
