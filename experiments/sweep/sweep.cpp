@@ -367,13 +367,9 @@ CheckpointHook image_and_coverage_hook(const ExperimentSpec& spec, const Planned
   };
 }
 
-// One run: its trace and summary rows into the partial folder, its run.json, radiosities, images
-// and coverage into the sweep folder. A failure is recorded (report.failures, a failed summary
-// row, a run.json saying why) and the sweep goes on.
-void run_one(const ExperimentSpec& spec, const SweepPlan& plan, const PlannedRun& run,
-             const std::string& stem, const std::filesystem::path& out, CurrentProblem& current,
-             SweepReport& report) {
-  RunRequest request = planned_request(spec, plan, run, stem, out);
+// What the summary row of a run says besides its result.
+SummaryInputs summary_inputs(const PlannedRun& run, const RunRequest& request,
+                             const CurrentProblem& current) {
   SummaryInputs inputs;
   inputs.run_index = run.index;
   inputs.labels = request.labels;
@@ -383,6 +379,37 @@ void run_one(const ExperimentSpec& spec, const SweepPlan& plan, const PlannedRun
     inputs.elements = current.problem->mesh.size();
     inputs.channels = current.problem->system->channels();
   }
+  return inputs;
+}
+
+// The run.json of a failed run: what identifies it (its solver's options once they parsed) and
+// why it failed. A run.json that cannot be written is a warning: the summary row says it all.
+void write_failed_run_json(const RunRequest& request, const Problem* problem, bool parsed,
+                           ExitCode code, const std::string& message) {
+  try {
+    JsonWriter json;
+    begin_run_json(json, request, problem, parsed ? &request.solver_parameters.values() : nullptr);
+    json.key("run").begin_object();
+    json.field("budget", request.budget.describe());
+    json.field("stop_reason", failure_stop_reason(code));
+    json.field("error", message);
+    json.field("exit_code", int(code));
+    json.end_object();
+    json.end_object();
+    json.save(request.outputs.json);
+  } catch (const InputError& e) {
+    log::warning(request.labels.run_id + ": " + e.what());
+  }
+}
+
+// One run: its trace and summary rows into the partial folder, its run.json, radiosities, images
+// and coverage into the sweep folder. A failure is recorded (report.failures, a failed summary
+// row, a run.json saying why) and the sweep goes on.
+void run_one(const ExperimentSpec& spec, const SweepPlan& plan, const PlannedRun& run,
+             const std::string& stem, const std::filesystem::path& out, CurrentProblem& current,
+             SweepReport& report) {
+  RunRequest request = planned_request(spec, plan, run, stem, out);
+  SummaryInputs inputs = summary_inputs(run, request, current);
 
   // This run's rows wait in the partial folder (short names, by index) until the sweep ends.
   // The summary row is written last: a run whose summary rows are in place is complete.
@@ -397,21 +424,7 @@ void run_one(const ExperimentSpec& spec, const SweepPlan& plan, const PlannedRun
     log::info(run.run_id + ": failed: " + message);
     report.failures.push_back({run.index, run.run_id, code, message});
     if (!trace.closed()) trace.close();
-    try {
-      JsonWriter json;
-      begin_run_json(json, request, current.problem.get(),
-                     parsed ? &request.solver_parameters.values() : nullptr);
-      json.key("run").begin_object();
-      json.field("budget", spec.budget.describe());
-      json.field("stop_reason", failure_stop_reason(code));
-      json.field("error", message);
-      json.field("exit_code", int(code));
-      json.end_object();
-      json.end_object();
-      json.save(request.outputs.json);
-    } catch (const InputError& e) {
-      log::warning(run.run_id + ": " + e.what());
-    }
+    write_failed_run_json(request, current.problem.get(), parsed, code, message);
     CsvWriter summary(summary_path, summary_columns());
     write_failed_summary_row(summary, inputs, failure_stop_reason(code), message);
     summary.close();
