@@ -15,23 +15,28 @@
 #include "solvers/kernels/kernels.h"
 #include "solvers/plugin_loader.h"
 
-int main(int argc, char** argv) {
-  CLI::App app{
-      "radlab: a research harness for comparing radiosity solvers against a certified reference"};
-  app.require_subcommand(1);
+namespace {
+
+// The options every subcommand takes (they may also follow the subcommand).
+struct GlobalOptions {
   bool quiet = false;
-  app.add_flag("-q,--quiet", quiet, "no progress or information on stderr (errors still print)");
   std::string limits;
-  app.add_option("--limits", limits,
+  std::string include_root;
+  std::vector<std::string> plugins;
+  bool scalar_kernels = false;
+  int threads = 0;
+};
+
+void add_global_options(CLI::App& app, GlobalOptions& o) {
+  app.add_flag("-q,--quiet", o.quiet, "no progress or information on stderr (errors still print)");
+  app.add_option("--limits", o.limits,
                  "raise or lower the work radlab accepts before refusing it (estimated before "
                  "allocating), key=value,...: " +
                      radlab::limits_help());
-  std::string include_root;
-  app.add_option("--mgf-include-root", include_root,
+  app.add_option("--mgf-include-root", o.include_root,
                  "let MGF scenes include files anywhere inside this folder (default: only inside "
                  "the scene file's own folder)");
-  std::vector<std::string> plugins;
-  app.add_option("--plugin", plugins,
+  app.add_option("--plugin", o.plugins,
                  "load solvers from a plugin (a shared library, see docs/library.md); "
                  "repeatable; RADLAB_PLUGIN_PATH lists more (files or folders, ':'-separated)");
   app.add_flag_callback(
@@ -41,15 +46,28 @@ int main(int argc, char** argv) {
         throw CLI::Success();
       },
       "print radlab's version, git revision and dependency versions, and exit");
-  bool scalar_kernels = false;
-  app.add_flag("--scalar-kernels", scalar_kernels,
+  app.add_flag("--scalar-kernels", o.scalar_kernels,
                "run the solvers' portable scalar kernels instead of the AVX2 ones the CPU offers "
                "(the same results bit for bit, slower; also RADLAB_KERNELS=scalar; "
                "RADLAB_KERNELS=avx512 runs the AVX-512 ones where the CPU has them)");
-  int threads = 0;
-  radlab::cli::add_threads_option(app, threads);
-  // These options may also follow the subcommand.
+  radlab::cli::add_threads_option(app, o.threads);
   app.fallthrough();
+}
+
+// Before any subcommand runs: its callback reads the solver table, the limits, the threads.
+void apply_global_options(const GlobalOptions& o) {
+  radlab::log::set_quiet(o.quiet);
+  if (!o.limits.empty()) radlab::set_limits(o.limits);
+  radlab::set_mgf_include_root(o.include_root);
+  // Loaded on the first use of the solver or method table, so a command that uses neither
+  // (`radlab scenes`) cannot be broken by a bad plugin (solvers/plugin_loader.h).
+  radlab::request_plugins(o.plugins);
+  radlab::cli::apply_threads(o.threads);
+  radlab::kernels::check_kernel_environment();
+  if (o.scalar_kernels) radlab::kernels::use_vector_kernels(false);
+}
+
+void add_commands(CLI::App& app, int argc, char** argv) {
   radlab::cli::add_scenes_command(app);
   radlab::cli::add_solvers_command(app);
   radlab::cli::add_formfactors_command(app);
@@ -58,17 +76,18 @@ int main(int argc, char** argv) {
   radlab::cli::add_run_command(app, argc, argv);
   radlab::cli::add_merge_command(app);
   radlab::cli::add_prepare_command(app);
-  app.parse_complete_callback([&]() {
-    radlab::log::set_quiet(quiet);
-    if (!limits.empty()) radlab::set_limits(limits);
-    radlab::set_mgf_include_root(include_root);
-    // Loaded on the first use of the solver table, so a command that runs no solver (`radlab
-    // scenes`) cannot be broken by a bad plugin (solvers/plugin_loader.h).
-    radlab::request_plugins(plugins);
-    radlab::cli::apply_threads(threads);
-    radlab::kernels::check_kernel_environment();
-    if (scalar_kernels) radlab::kernels::use_vector_kernels(false);
-  });
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "radlab: a research harness for comparing radiosity solvers against a certified reference"};
+  app.require_subcommand(1);
+  GlobalOptions options;
+  add_global_options(app, options);
+  add_commands(app, argc, argv);
+  app.parse_complete_callback([&options]() { apply_global_options(options); });
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -68,253 +68,364 @@ void log_storage(const std::string& what, const FormFactorMatrix& m) {
   log::info(buffer);
 }
 
-}  // namespace
+// What the stages hand on to each other besides the problem itself.
+struct Preparation {
+  Preparation(Problem& problem_in, const ProblemSpec& spec_in)
+      : problem(problem_in), spec(spec_in) {}
+  Problem& problem;
+  const ProblemSpec& spec;
+  // The generic form-factor options of --ff-set (any method), read by the method stage.
+  bool symmetrise = false;
+  bool accept_unphysical = false;
+  Precision precision = Precision::kFloat;
+  // The cache (when used) and the key of this problem's matrix in it.
+  std::filesystem::path cache_dir;
+  std::optional<MatrixCache> cache;
+  MatrixCacheKey key;
+  // Rows on the fly with the reference in the cache: the reference certified with the rows the
+  // method computes, the row sums of that pass, and the System it was certified on.
+  std::optional<StreamedCheck> streamed;
+  std::unique_ptr<System> streamed_system;
+  // While the matrix is built and stored: the lock that makes concurrent processes build it once.
+  std::unique_ptr<FileLock> building;
 
-std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
-  auto problem = std::make_unique<Problem>();
-  problem->spec = spec;
-  problem->loaded = load_scene(spec.scene, true, spec.keep_overlaps);
-  if (spec.require_emitter) require_emitter(problem->scene());
-  if (spec.mesh.subdivisions < 1) throw UsageError("--subdiv must be >= 1");
-  if (spec.mesh.element_size < 0) throw UsageError("--element-size must be > 0");
-  problem->mesh = build_mesh(problem->scene(), spec.mesh);
-  log::info(problem->scene().name + ": " + std::to_string(problem->scene().polygons.size()) +
-            " polygons, " + std::to_string(problem->mesh.size()) + " elements, " +
-            (problem->scene().is_grey() ? "grey (1 channel)" : "RGB (3 channels)"));
+  size_t n() const { return problem.mesh.size(); }
+};
 
+// Stage 1, scene: loaded, validated, overlaps resolved (scene/scene_loader.h).
+void scene_stage(Preparation& p) {
+  p.problem.loaded = load_scene(p.spec.scene, true, p.spec.keep_overlaps);
+  if (p.spec.require_emitter) require_emitter(p.problem.scene());
+}
+
+// Stage 2, mesh.
+void mesh_stage(Preparation& p) {
+  Problem& problem = p.problem;
+  if (p.spec.mesh.subdivisions < 1) throw UsageError("--subdiv must be >= 1");
+  if (p.spec.mesh.element_size < 0) throw UsageError("--element-size must be > 0");
+  problem.mesh = build_mesh(problem.scene(), p.spec.mesh);
+  log::info(problem.scene().name + ": " + std::to_string(problem.scene().polygons.size()) +
+            " polygons, " + std::to_string(problem.mesh.size()) + " elements, " +
+            (problem.scene().is_grey() ? "grey (1 channel)" : "RGB (3 channels)"));
+}
+
+// Stage 3, method: the form-factor method and the generic options every method takes.
+void method_stage(Preparation& p) {
+  const ProblemSpec& spec = p.spec;
+  Problem& problem = p.problem;
   ParamBag ff_bag =
       ParamBag::from_assignments(spec.ff_set, "form factors '" + spec.ff_method + "'");
   // Generic form-factor option (any method): symmetrise the dense matrix after building/loading.
   // On by default for a dense matrix, so shooting, gathering, CG and the reference all solve the
   // same (reciprocal) system (docs/solvers.md); rows computed on the fly cannot be symmetrised.
-  const bool symmetrise_ff = ff_bag.get_bool("symmetrise", spec.row_mode == RowMode::kCached);
+  p.symmetrise = ff_bag.get_bool("symmetrise", spec.row_mode == RowMode::kCached);
   // Generic: rows above 1 + the method's stated error are refused before the reference unless
   // the user accepts them (then every certificate names the system as unphysical).
-  const bool accept_unphysical =
-      ff_bag.get_choice("unphysical", "refuse", {"refuse", "accept"}) == "accept";
+  p.accept_unphysical = ff_bag.get_choice("unphysical", "refuse", {"refuse", "accept"}) == "accept";
   // Generic too: the stored precision, as --precision or --ff-set precision=... (the same thing).
   const std::string default_precision = spec.precision == Precision::kDouble ? "double" : "float";
   const std::string precision_name =
       ff_bag.get_choice("precision", default_precision, {"float", "double"});
-  const Precision precision = precision_name == "double" ? Precision::kDouble : Precision::kFloat;
-  problem->spec.precision = precision;
-  problem->method =
-      make_form_factor_method(spec.ff_method, ff_bag, problem->scene(), problem->mesh);
-  problem->ff_parameters =
-      problem->method->parameters() + (symmetrise_ff ? ",symmetrise=true" : "");
-  if (symmetrise_ff && spec.row_mode != RowMode::kCached)
+  p.precision = precision_name == "double" ? Precision::kDouble : Precision::kFloat;
+  problem.spec.precision = p.precision;
+  problem.method = make_form_factor_method(spec.ff_method, ff_bag, problem.scene(), problem.mesh);
+  problem.ff_parameters = problem.method->parameters() + (p.symmetrise ? ",symmetrise=true" : "");
+  if (p.symmetrise && spec.row_mode != RowMode::kCached)
     throw UsageError("form factors: symmetrise=true needs the dense matrix (--ff-mode cached)");
-
-  // Two levels: patch rows and the rank-P reference, no n x n matrix (two_level_problem.h).
   spec.patches.validate();
-  if (spec.patches.two_level()) {
-    problem->ff_parameters = problem->method->parameters();
-    prepare_two_level(*problem, accept_unphysical);
-    return problem;
-  }
+  // Two levels never symmetrise: no n x n matrix.
+  if (spec.patches.two_level()) problem.ff_parameters = problem.method->parameters();
+}
 
-  const size_t n = problem->mesh.size();
-  // The dense matrix is built when rows are cached or the reference needs it; a streaming run
-  // without a reference never holds n^2 numbers.
-  std::filesystem::path cache_dir;
-  if (spec.use_cache)
-    cache_dir =
-        spec.cache_dir.empty() ? default_cache_dir() : std::filesystem::path(spec.cache_dir);
-  std::optional<MatrixCache> cache;
-  MatrixCacheKey key;
-  if (!cache_dir.empty()) {
-    cache.emplace(cache_dir);
-    // The cache holds the method's matrix in double; float storage is its rounding, made below.
-    key = matrix_cache_key(problem->mesh, problem->method->name(), problem->method->parameters(),
+// The cache folder and this problem's key in it; the cache holds the method's matrix in double
+// (float storage is its rounding, made after loading).
+void open_cache(Preparation& p) {
+  if (!p.spec.use_cache) return;
+  p.cache_dir =
+      p.spec.cache_dir.empty() ? default_cache_dir() : std::filesystem::path(p.spec.cache_dir);
+  p.cache.emplace(p.cache_dir);
+  p.key = matrix_cache_key(p.problem.mesh, p.problem.method->name(), p.problem.method->parameters(),
                            Precision::kDouble);
-    problem->matrix_cache_file = cache->path(key).string();
-  }
-  // Rows on the fly with a reference in the cache: the reference is certified with the rows the
-  // method computes, one pass in O(n) memory, and the dense matrix is never built.
-  spec.patches.validate();
-  const bool two_level = spec.patches.two_level();
-  std::optional<StreamedCheck> streamed;
-  if (spec.need_reference && spec.row_mode == RowMode::kOnTheFly && cache && !two_level) {
-    System on_the_fly(problem->scene(), problem->mesh, *problem->method);
-    ReferenceCache references(cache_dir);
-    const ReferenceCacheKey reference_key = reference_cache_key(key, false, on_the_fly, {});
-    if (std::filesystem::exists(references.path(reference_key))) {
-      Progress progress(
-          "cached reference, certified with rows on the fly (" + std::to_string(n) + " rows)", "",
-          0);
-      StreamedCheck check;
-      problem->reference = references.load(reference_key, on_the_fly, *problem->method, {}, check);
-      progress.finish();
-      if (problem->reference) {
-        streamed = std::move(check);
-        problem->reference_cache_file = references.path(reference_key).string();
-      }
-    }
-  }
-  const bool dense = spec.row_mode == RowMode::kCached || (spec.need_reference && !streamed);
-  if (dense) {
-    // Estimated before the n^2 allocation and the n^2 pair evaluations.
-    const double pairs = double(n) * double(n);
-    const std::string what = problem->scene().name + ": the dense form-factor matrix of " +
-                             std::to_string(n) + " elements";
-    check_limit("memory_gb", pairs * (precision == Precision::kDouble ? 8.0 : 4.0), what);
-    check_limit("pairs", pairs, what + " (" + spec.ff_method + ")");
-  }
-  if (dense) {
-    // What the method's stated error needs beside the matrix (its side files: raycast's per-row
-    // visibility errors, exact's pairs stopped short of its tolerance); a cached matrix whose
-    // method refuses it without them is not used.
-    const auto load = [&]() -> std::optional<FormFactorMatrix> {
-      BuildReport report = problem->build;
-      std::optional<FormFactorMatrix> m = cache->load(key, &report);
-      if (m && !problem->method->load_side_files(cache->path(key).string(), n)) return std::nullopt;
-      problem->build = std::move(report);
-      return m;
-    };
-    std::optional<FormFactorMatrix> cached = cache ? load() : std::nullopt;
-    // A miss: hold the key's lock while building and storing, so that concurrent processes
-    // (shards on an empty cache) build the matrix once; a waiter finds it stored and loads it.
-    std::unique_ptr<FileLock> building;
-    if (cache && !cached) {
-      building = cache->lock(key);
-      cached = load();
-    }
-    if (cached) {
-      problem->matrix = std::move(*cached);
-      log::info("form factors: " + problem->build.summary());
-    } else {
-      // Sparse: pairs culled or fully occluded cost nothing, and no row more than its dense form
-      // (formfactor/matrix/matrix.h); the solvers read the same numbers either way. A method
-      // that integrates each unordered pair once (exact) is built so (the same bits as row by row:
-      // formfactor/matrix/symmetric_build.h).
-      const bool pairs_once = problem->method->integrates_pairs_once();
-      Progress progress("form factors (" + spec.ff_method + ", " + std::to_string(n) + " rows" +
-                            (pairs_once ? ", each pair once)" : ")"),
-                        pairs_once ? "pairs" : "rows",
-                        pairs_once ? 0.5 * double(n) * double(n - 1) : double(n));
-      const auto update = [&](size_t done, size_t) { progress.update(double(done)); };
-      problem->matrix =
-          pairs_once ? build_matrix_symmetric(*problem->method, problem->mesh, Precision::kDouble,
-                                              Layout::kSparse, problem->build, update)
-                     : build_matrix(*problem->method, n, Precision::kDouble, Layout::kSparse,
-                                    problem->build, update);
-      progress.finish(std::to_string(problem->build.cost.rays) + " visibility rays");
-      log::info("form factors: " + problem->build.summary());
-    }
-    // The method's own matrix is checked (and reported) before anything hides its defects; a
-    // matrix with negative or non-finite entries is never cached or used.
-    problem->raw_diagnostics = diagnose(problem->matrix, problem->mesh.area);
-    if (problem->raw_diagnostics.non_finite_entries > 0 ||
-        problem->raw_diagnostics.negative_entries > 0)
-      throw NumericalError("form factors '" + spec.ff_method +
-                           "': " + problem->raw_diagnostics.summary());
-    check_row_sums(*problem, false);
-    log_storage("form factors (double)", problem->matrix);
-    if (cache && !problem->build.cached && cache->store(key, problem->matrix, problem->build)) {
-      problem->build.cache_file = cache->path(key).string();
-      problem->method->save_side_files(problem->build.cache_file);
-    }
-    building.reset();
-    if (symmetrise_ff) {
-      log::info("form factors (as computed): " + problem->raw_diagnostics.summary());
-      symmetrise(problem->matrix, problem->mesh.area);
-    }
-    // Float storage: the solvers read the rounding of the double matrix, and the reference and
-    // bounds stay on the double one (the system the method computed; docs/reference.md).
-    if (precision == Precision::kFloat && spec.row_mode == RowMode::kCached) {
-      FormFactorMatrix rounded = convert_precision(problem->matrix, Precision::kFloat);
-      // Without a reference nothing is certified: the double matrix is not kept.
-      if (spec.need_reference) problem->computed = std::move(problem->matrix);
-      problem->matrix = std::move(rounded);
-    }
-    if (problem->computed.size() > 0) log_storage("form factors (float)", problem->matrix);
-    if (symmetrise_ff || precision == Precision::kFloat) {
-      problem->diagnostics = diagnose(problem->matrix, problem->mesh.area);
-      log::info(std::string("form factors (") + (symmetrise_ff ? "symmetrised" : "") +
-                (symmetrise_ff && precision == Precision::kFloat ? ", " : "") +
-                (precision == Precision::kFloat ? "stored in float" : "") +
-                "): " + problem->diagnostics.summary());
-      check_row_sums(*problem, true);
-    } else {
-      problem->diagnostics = problem->raw_diagnostics;
-      log::info("form factors: " + problem->diagnostics.summary());
-      problem->used_row_sums = problem->row_sums;
-    }
-  }
+  p.problem.matrix_cache_file = p.cache->path(p.key).string();
+}
 
-  if (spec.row_mode == RowMode::kCached)
-    problem->system = std::make_unique<System>(problem->scene(), problem->mesh, problem->matrix);
-  else
-    problem->system = std::make_unique<System>(problem->scene(), problem->mesh, *problem->method);
+// Rows on the fly with a reference in the cache: the reference is certified with the rows the
+// method computes, one pass in O(n) memory, and the dense matrix is never built.
+void find_streamed_reference(Preparation& p) {
+  Problem& problem = p.problem;
+  if (!p.spec.need_reference || p.spec.row_mode != RowMode::kOnTheFly || !p.cache) return;
+  auto on_the_fly = std::make_unique<System>(problem.scene(), problem.mesh, *problem.method);
+  ReferenceCache references(p.cache_dir);
+  const ReferenceCacheKey reference_key = reference_cache_key(p.key, false, *on_the_fly, {});
+  if (!std::filesystem::exists(references.path(reference_key))) return;
+  Progress progress(
+      "cached reference, certified with rows on the fly (" + std::to_string(p.n()) + " rows)", "",
+      0);
+  StreamedCheck check;
+  problem.reference = references.load(reference_key, *on_the_fly, *problem.method, {}, check);
+  progress.finish();
+  if (!problem.reference) return;
+  p.streamed = std::move(check);
+  p.streamed_system = std::move(on_the_fly);
+  problem.reference_cache_file = references.path(reference_key).string();
+}
 
-  if (spec.need_reference && streamed) {
-    // The checks of a dense build, from the same pass (rows summing above 1 + the stated error,
-    // the emitters' power), then the certificate's wording.
-    RowSumCheck& sums = problem->row_sums;
-    sums.stated_error = stated_row_sum_error(*problem->method);
-    sums.row_sum_min =
-        n ? *std::min_element(streamed->row_sum.begin(), streamed->row_sum.end()) : 0.0;
-    sums.row_sum_max =
-        n ? *std::max_element(streamed->row_sum.begin(), streamed->row_sum.end()) : 0.0;
-    for (double v : streamed->row_sum) sums.rows_above += v > 1.0 + sums.stated_error;
-    problem->used_row_sums = sums;
-    double sent = 0.0, gathered = 0.0;
-    for (size_t i = 0; i < n; ++i) {
-      double e = 0.0;
-      for (int c = 0; c < problem->system->channels(); ++c)
-        e += problem->system->emission().at(c, i);
-      sent += e * problem->mesh.area[i] * streamed->row_sum[i];
-      gathered += problem->mesh.area[i] * streamed->emitter_sum[i];
-    }
-    refuse_unphysical(*problem, accept_unphysical,
-                      sent > 0 ? gathered / sent : (gathered > 0 ? 1e300 : 1.0));
-  } else if (spec.need_reference) {
-    Progress progress("reference solution (" + std::to_string(n) + " elements)", "", 0);
-    const FormFactorMatrix& certified = problem->certified_matrix();
-    System cached(problem->scene(), problem->mesh, certified);
-    std::optional<ReferenceCache> references;
-    ReferenceCacheKey reference_key;
-    if (cache) {
-      references.emplace(cache_dir);
-      reference_key = reference_cache_key(key, symmetrise_ff, cached, {});
-      problem->reference_cache_file = references->path(reference_key).string();
-      problem->reference = references->load(reference_key, cached, certified, {});
-    }
-    std::unique_ptr<FileLock> computing;  // as for the matrix: computed once, others wait
-    if (references && !problem->reference) {
-      computing = references->lock(reference_key);
-      problem->reference = references->load(reference_key, cached, certified, {});
-    }
-    refuse_unphysical(*problem, accept_unphysical,
-                      emitted_power_ratio(problem->matrix, problem->scene(), problem->mesh));
-    if (!problem->reference) {
-      try {
-        problem->reference = compute_reference(cached, certified);
-      } catch (const NumericalError& e) {  // name F's row sums beside the spectral radius
-        throw NumericalError(std::string(e.what()) + " [" + problem->used_row_sums.headline() +
-                             "]");
-      }
-      if (references) references->store(reference_key, *problem->reference);
-    }
-    computing.reset();
-    progress.finish();
+// The n^2 matrix is estimated against the limits before it is allocated and computed.
+void check_dense_limits(const Preparation& p) {
+  const double pairs = double(p.n()) * double(p.n());
+  const std::string what = p.problem.scene().name + ": the dense form-factor matrix of " +
+                           std::to_string(p.n()) + " elements";
+  check_limit("memory_gb", pairs * (p.precision == Precision::kDouble ? 8.0 : 4.0), what);
+  check_limit("pairs", pairs, what + " (" + p.spec.ff_method + ")");
+}
+
+// The matrix from the cache, with what the method's stated error needs beside it (its side
+// files: raycast's per-row visibility errors, exact's pairs stopped short of its tolerance); a
+// cached matrix whose method refuses it without them is not used. nullopt on a miss.
+std::optional<FormFactorMatrix> load_cached_matrix(Preparation& p) {
+  Problem& problem = p.problem;
+  BuildReport report = problem.build;
+  std::optional<FormFactorMatrix> m = p.cache->load(p.key, &report);
+  if (m && !problem.method->load_side_files(p.cache->path(p.key).string(), p.n()))
+    return std::nullopt;
+  problem.build = std::move(report);
+  return m;
+}
+
+// The method's matrix in double, built. Sparse: pairs culled or fully occluded cost nothing, and
+// no row more than its dense form (formfactor/matrix/matrix.h); the solvers read the same numbers
+// either way. A method that integrates each unordered pair once (exact) is built so (the same
+// bits as row by row: formfactor/matrix/symmetric_build.h).
+FormFactorMatrix build_method_matrix(Problem& problem) {
+  const size_t n = problem.mesh.size();
+  const bool pairs_once = problem.method->integrates_pairs_once();
+  Progress progress("form factors (" + problem.spec.ff_method + ", " + std::to_string(n) + " rows" +
+                        (pairs_once ? ", each pair once)" : ")"),
+                    pairs_once ? "pairs" : "rows",
+                    pairs_once ? 0.5 * double(n) * double(n - 1) : double(n));
+  const auto update = [&](size_t done, size_t) { progress.update(double(done)); };
+  FormFactorMatrix matrix =
+      pairs_once ? build_matrix_symmetric(*problem.method, problem.mesh, Precision::kDouble,
+                                          Layout::kSparse, problem.build, update)
+                 : build_matrix(*problem.method, n, Precision::kDouble, Layout::kSparse,
+                                problem.build, update);
+  progress.finish(std::to_string(problem.build.cost.rays) + " visibility rays");
+  return matrix;
+}
+
+// The method's matrix: loaded from the cache, else built under the key's lock (concurrent
+// processes, e.g. shards on an empty cache, build it once; a waiter finds it stored and loads
+// it).
+void load_or_build_matrix(Preparation& p) {
+  Problem& problem = p.problem;
+  std::optional<FormFactorMatrix> cached = p.cache ? load_cached_matrix(p) : std::nullopt;
+  if (p.cache && !cached) {
+    p.building = p.cache->lock(p.key);
+    cached = load_cached_matrix(p);
   }
-  if (spec.need_reference) {
-    problem->reference->system =
-        "F of " + spec.ff_method + " in double precision, as computed" +
-        (symmetrise_ff ? ", then symmetrised (symmetrise=true, the default with cached rows: a "
+  if (cached) {
+    problem.matrix = std::move(*cached);
+  } else {
+    problem.matrix = build_method_matrix(problem);
+  }
+  log::info("form factors: " + problem.build.summary());
+}
+
+// The method's own matrix is checked (and reported) before anything hides its defects; a matrix
+// with negative or non-finite entries is never cached or used. Then it is stored with what the
+// method keeps beside it, and the lock released.
+void check_and_store_matrix(Preparation& p) {
+  Problem& problem = p.problem;
+  problem.raw_diagnostics = diagnose(problem.matrix, problem.mesh.area);
+  if (problem.raw_diagnostics.non_finite_entries > 0 ||
+      problem.raw_diagnostics.negative_entries > 0)
+    throw NumericalError("form factors '" + p.spec.ff_method +
+                         "': " + problem.raw_diagnostics.summary());
+  check_row_sums(problem, false);
+  log_storage("form factors (double)", problem.matrix);
+  if (p.cache && !problem.build.cached && p.cache->store(p.key, problem.matrix, problem.build)) {
+    problem.build.cache_file = p.cache->path(p.key).string();
+    problem.method->save_side_files(problem.build.cache_file);
+  }
+  p.building.reset();
+}
+
+// The matrix the solvers read, from the method's: symmetrised (if asked) and rounded to float
+// (float storage; the reference and bounds stay on the double one, the system the method
+// computed: docs/reference.md), with its diagnostics and row sums.
+void derive_solver_matrix(Preparation& p) {
+  Problem& problem = p.problem;
+  const bool symmetrised = p.symmetrise, to_float = p.precision == Precision::kFloat;
+  if (symmetrised) {
+    log::info("form factors (as computed): " + problem.raw_diagnostics.summary());
+    symmetrise(problem.matrix, problem.mesh.area);
+  }
+  if (to_float && p.spec.row_mode == RowMode::kCached) {
+    FormFactorMatrix rounded = convert_precision(problem.matrix, Precision::kFloat);
+    // Without a reference nothing is certified: the double matrix is not kept.
+    if (p.spec.need_reference) problem.computed = std::move(problem.matrix);
+    problem.matrix = std::move(rounded);
+  }
+  if (problem.computed.size() > 0) log_storage("form factors (float)", problem.matrix);
+  if (symmetrised || to_float) {
+    problem.diagnostics = diagnose(problem.matrix, problem.mesh.area);
+    log::info(std::string("form factors (") + (symmetrised ? "symmetrised" : "") +
+              (symmetrised && to_float ? ", " : "") + (to_float ? "stored in float" : "") +
+              "): " + problem.diagnostics.summary());
+    check_row_sums(problem, true);
+  } else {
+    problem.diagnostics = problem.raw_diagnostics;
+    log::info("form factors: " + problem.diagnostics.summary());
+    problem.used_row_sums = problem.row_sums;
+  }
+}
+
+// Stage 4, matrix (cached): the dense matrix when rows are cached or the reference needs it (a
+// streaming run without a reference never holds n^2 numbers, nor one whose reference the cache
+// holds).
+void matrix_stage(Preparation& p) {
+  open_cache(p);
+  find_streamed_reference(p);
+  const bool dense = p.spec.row_mode == RowMode::kCached || (p.spec.need_reference && !p.streamed);
+  if (!dense) return;
+  check_dense_limits(p);
+  load_or_build_matrix(p);
+  check_and_store_matrix(p);
+  derive_solver_matrix(p);
+}
+
+// Stage 5, checks: the physical checks before the reference (refuse_unphysical), from the dense
+// matrix or, for a reference certified with rows on the fly, from the same pass (rows summing
+// above 1 + the stated error, the emitters' power).
+void checks_stage(Preparation& p) {
+  Problem& problem = p.problem;
+  if (!p.spec.need_reference) return;
+  if (!p.streamed) {
+    refuse_unphysical(problem, p.accept_unphysical,
+                      emitted_power_ratio(problem.matrix, problem.scene(), problem.mesh));
+    return;
+  }
+  const StreamedCheck& streamed = *p.streamed;
+  const size_t n = p.n();
+  RowSumCheck& sums = problem.row_sums;
+  sums.stated_error = stated_row_sum_error(*problem.method);
+  sums.row_sum_min = n ? *std::min_element(streamed.row_sum.begin(), streamed.row_sum.end()) : 0.0;
+  sums.row_sum_max = n ? *std::max_element(streamed.row_sum.begin(), streamed.row_sum.end()) : 0.0;
+  for (double v : streamed.row_sum) sums.rows_above += v > 1.0 + sums.stated_error;
+  problem.used_row_sums = sums;
+  const System& system = *p.streamed_system;
+  double sent = 0.0, gathered = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    double e = 0.0;
+    for (int c = 0; c < system.channels(); ++c) e += system.emission().at(c, i);
+    sent += e * problem.mesh.area[i] * streamed.row_sum[i];
+    gathered += problem.mesh.area[i] * streamed.emitter_sum[i];
+  }
+  refuse_unphysical(problem, p.accept_unphysical,
+                    sent > 0 ? gathered / sent : (gathered > 0 ? 1e300 : 1.0));
+}
+
+// What the certificate is of: the method's F in double, symmetrised or not, how the solvers read
+// it, and whether it was accepted as unphysical (docs/reference.md).
+std::string certified_system_text(const Preparation& p) {
+  return "F of " + p.spec.ff_method + " in double precision, as computed" +
+         (p.symmetrise ? ", then symmetrised (symmetrise=true, the default with cached rows: a "
                          "chosen change of the system; symmetrise=false certifies the method's own)"
                        : "") +
-        (precision == Precision::kFloat ? "; solvers read it rounded to float" : "") +
-        (accept_unphysical && !problem->row_sums.ok()
-             ? "; UNPHYSICAL: rows of F above 1 + the method's stated error, accepted with "
-               "unphysical=accept"
-             : "");
-    if (streamed)
-      problem->reference->system +=
-          "; rows computed on the fly, the cached reference certified against them";
-    log::info("reference: " + problem->reference->summary());
+         (p.precision == Precision::kFloat ? "; solvers read it rounded to float" : "") +
+         (p.accept_unphysical && !p.problem.row_sums.ok()
+              ? "; UNPHYSICAL: rows of F above 1 + the method's stated error, accepted with "
+                "unphysical=accept"
+              : "") +
+         (p.streamed ? "; rows computed on the fly, the cached reference certified against them"
+                     : "");
+}
+
+// Stage 6, reference (cached): certified anew when loaded; computed under the key's lock on a
+// miss (as the matrix: computed once, others wait) and stored. Then what the certificate is of.
+void reference_stage(Preparation& p) {
+  Problem& problem = p.problem;
+  if (!p.streamed) {
+    Progress progress("reference solution (" + std::to_string(p.n()) + " elements)", "", 0);
+    const FormFactorMatrix& certified = problem.certified_matrix();
+    System cached(problem.scene(), problem.mesh, certified);
+    std::optional<ReferenceCache> references;
+    ReferenceCacheKey reference_key;
+    if (p.cache) {
+      references.emplace(p.cache_dir);
+      reference_key = reference_cache_key(p.key, p.symmetrise, cached, {});
+      problem.reference_cache_file = references->path(reference_key).string();
+      problem.reference = references->load(reference_key, cached, certified, {});
+    }
+    std::unique_ptr<FileLock> computing;
+    if (references && !problem.reference) {
+      computing = references->lock(reference_key);
+      problem.reference = references->load(reference_key, cached, certified, {});
+    }
+    if (!problem.reference) {
+      try {
+        problem.reference = compute_reference(cached, certified);
+      } catch (const NumericalError& e) {  // name F's row sums beside the spectral radius
+        throw NumericalError(std::string(e.what()) + " [" + problem.used_row_sums.headline() + "]");
+      }
+      if (references) references->store(reference_key, *problem.reference);
+    }
+    progress.finish();
   }
+  problem.reference->system = certified_system_text(p);
+  log::info("reference: " + problem.reference->summary());
+}
+
+// Stage 7, system: what the solvers read, rows from the matrix or on the fly (RowMode).
+void system_stage(Preparation& p) {
+  Problem& problem = p.problem;
+  if (p.spec.row_mode == RowMode::kCached)
+    problem.system = std::make_unique<System>(problem.scene(), problem.mesh, problem.matrix);
+  else
+    problem.system = std::make_unique<System>(problem.scene(), problem.mesh, *problem.method);
+}
+
+// Two levels (two_level_problem.h): the patch rows in the matrix's place, their checks, the
+// rank-P reference, the system on the rows. Nothing n x n.
+void two_level_rows_stage(Preparation& p) {
+  two_level_patch_rows(p.problem);
+}
+void two_level_checks_stage(Preparation& p) {
+  check_two_level_rows(p.problem, p.accept_unphysical);
+}
+void two_level_reference_stage(Preparation& p) {
+  two_level_reference(p.problem, p.accept_unphysical);
+}
+void two_level_system_stage(Preparation& p) {
+  two_level_system(p.problem);
+}
+
+// The stages after the method, by the shape of the system: one level (the n x n matrix) or two
+// (patch rows).
+struct Stages {
+  void (*matrix)(Preparation&);
+  void (*checks)(Preparation&);
+  void (*reference)(Preparation&);
+  void (*system)(Preparation&);
+};
+constexpr Stages kOneLevel{matrix_stage, checks_stage, reference_stage, system_stage};
+constexpr Stages kTwoLevels{two_level_rows_stage, two_level_checks_stage, two_level_reference_stage,
+                            two_level_system_stage};
+
+}  // namespace
+
+std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
+  auto problem = std::make_unique<Problem>();
+  problem->spec = spec;
+  Preparation p{*problem, spec};
+  scene_stage(p);
+  mesh_stage(p);
+  method_stage(p);
+  const Stages& stages = spec.patches.two_level() ? kTwoLevels : kOneLevel;
+  stages.matrix(p);
+  stages.checks(p);
+  if (spec.need_reference) stages.reference(p);
+  stages.system(p);
   return problem;
 }
 

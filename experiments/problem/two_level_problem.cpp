@@ -1,4 +1,4 @@
-// The two-level part of prepare_problem (see two_level_problem.h).
+// The two-level stages of prepare_problem (see two_level_problem.h).
 #include "experiments/problem/two_level_problem.h"
 
 #include <cstdio>
@@ -27,7 +27,7 @@ RowMatrix round_rows_to_float(const RowMatrix& rows) {
 
 }  // namespace
 
-void prepare_two_level(Problem& problem, bool accept_unphysical) {
+void two_level_patch_rows(Problem& problem) {
   const ProblemSpec& spec = problem.spec;
   const size_t n = problem.mesh.size();
   problem.patches = make_patches(problem.scene(), problem.mesh, spec.patches);
@@ -54,6 +54,10 @@ void prepare_two_level(Problem& problem, bool accept_unphysical) {
             (spec.patches.rows == "auto" ? ", rows " + rule_name : std::string()) + ") shoot to " +
             std::to_string(n) + " elements; largest patch " +
             std::to_string(problem.patches.largest()) + " elements; " + report.summary());
+}
+
+void check_two_level_rows(const Problem& problem, bool accept_unphysical) {
+  const PatchRowReport& report = problem.patch_row_report;
   const double stated = stated_row_sum_error(*problem.method);
   if (report.max_row_sum > 1.0 + stated) {
     char buffer[300];
@@ -72,19 +76,14 @@ void prepare_two_level(Problem& problem, bool accept_unphysical) {
         std::to_string(report.max_gather_sum) +
         " at an element (a patch's aliasing on a small element, scaled by A_p / A_e; "
         "docs/solvers.md); shooting conserves light whatever this is");
-  if (spec.precision == Precision::kFloat)
-    problem.patch_rows = round_rows_to_float(problem.certified_patch_rows);
-  else
-    problem.patch_rows = problem.certified_patch_rows;
-  problem.gather_rows =
-      std::make_unique<TwoLevelRows>(problem.mesh, problem.patches, problem.patch_rows);
-  problem.system = std::make_unique<System>(problem.scene(), problem.mesh, *problem.gather_rows,
-                                            problem.patches, problem.patch_rows);
-  if (!spec.need_reference) return;
+}
+
+void two_level_reference(Problem& problem, bool accept_unphysical) {
+  const ProblemSpec& spec = problem.spec;
   {
-    Progress progress(
-        "two-level reference (" + std::to_string(n) + " elements, rank " + std::to_string(P) + ")",
-        "", 0);
+    Progress progress("two-level reference (" + std::to_string(problem.mesh.size()) +
+                          " elements, rank " + std::to_string(problem.patches.size()) + ")",
+                      "", 0);
     // The certified system is K of the double rows; a System on them gives rho and E.
     TwoLevelRows certified_gather(problem.mesh, problem.patches, problem.certified_patch_rows);
     System certified(problem.scene(), problem.mesh, certified_gather, problem.patches,
@@ -93,15 +92,28 @@ void prepare_two_level(Problem& problem, bool accept_unphysical) {
         compute_two_level_reference(certified, problem.patches, problem.certified_patch_rows);
     progress.finish();
   }
+  const double stated = stated_row_sum_error(*problem.method);
   problem.reference->system =
-      "two levels: K of " + spec.patches.canonical() + ", patch rows " + rule_name + " of " +
-      spec.ff_method + " in double precision (docs/solvers.md, \"Two levels\")" +
+      "two levels: K of " + spec.patches.canonical() + ", patch rows " +
+      spec.patches.resolved_rows(spec.ff_method) + " of " + spec.ff_method +
+      " in double precision (docs/solvers.md, \"Two levels\")" +
       (spec.precision == Precision::kFloat ? "; solvers read the rows rounded to float" : "") +
-      (accept_unphysical && report.max_row_sum > 1.0 + stated
+      (accept_unphysical && problem.patch_row_report.max_row_sum > 1.0 + stated
            ? "; UNPHYSICAL: patch rows above 1 + the method's stated error, accepted with "
              "unphysical=accept"
            : "");
   log::info("reference: " + problem.reference->summary());
+}
+
+void two_level_system(Problem& problem) {
+  if (problem.spec.precision == Precision::kFloat)
+    problem.patch_rows = round_rows_to_float(problem.certified_patch_rows);
+  else
+    problem.patch_rows = problem.certified_patch_rows;
+  problem.gather_rows =
+      std::make_unique<TwoLevelRows>(problem.mesh, problem.patches, problem.patch_rows);
+  problem.system = std::make_unique<System>(problem.scene(), problem.mesh, *problem.gather_rows,
+                                            problem.patches, problem.patch_rows);
 }
 
 std::vector<std::pair<std::string, double>> final_system_statistics(const Problem& problem,

@@ -17,9 +17,20 @@
 
 namespace radlab {
 
-// Fills problem.patches, patch_rows, certified_patch_rows, gather_rows, system and (if
-// spec.need_reference) reference. `accept_unphysical`: --ff-set unphysical=accept.
-void prepare_two_level(Problem& problem, bool accept_unphysical);
+// The stages of prepare_problem on two levels, in its order (problem.cpp: scene, mesh, method,
+// then these in the place of the matrix, checks, reference and system stages of one level).
+// `accept_unphysical`: --ff-set unphysical=accept.
+//
+// Patches and their rows in double (problem.patches, certified_patch_rows, patch_row_report,
+// build): the form factors of two levels.
+void two_level_patch_rows(Problem& problem);
+// Every patch row sums to at most 1 + the method's stated error, unless accepted.
+void check_two_level_rows(const Problem& problem, bool accept_unphysical);
+// The certified reference of the double rows' system, by its rank-P reduction.
+void two_level_reference(Problem& problem, bool accept_unphysical);
+// The rows as the solvers read them (float storage rounds them), K's rows served from them, and
+// the System (problem.patch_rows, gather_rows, system).
+void two_level_system(Problem& problem);
 
 // ||E - (I - J) B||_inf per channel of the two-level system (its certified rows).
 std::vector<double> two_level_residual(const Problem& problem, const Radiosity& B);

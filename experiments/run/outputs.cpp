@@ -39,7 +39,9 @@ void write_build_info(JsonWriter& json) {
   json.end_object();
 }
 
-void write_problem_info(JsonWriter& json, const Problem& p) {
+namespace {
+
+void write_scene_info(JsonWriter& json, const Problem& p) {
   json.key("scene").begin_object();
   json.field("spec", p.spec.scene);
   json.field("polygons", p.scene().polygons.size());
@@ -49,14 +51,20 @@ void write_problem_info(JsonWriter& json, const Problem& p) {
   json.field("polygons_dropped", p.loaded.report.dropped);
   json.field("polygons_split", p.loaded.report.triangulated);
   json.end_object();
+}
 
+void write_mesh_info(JsonWriter& json, const Problem& p) {
   json.key("mesh").begin_object();
   json.field("subdivisions", p.spec.mesh.subdivisions);
   json.field("element_size", p.spec.mesh.element_size);
   json.field("elements", p.mesh.size());
   json.field("total_area", p.mesh.total_area);
   json.end_object();
+}
 
+// The form factors: method, storage, and the cost and diagnostics of the patch rows (two levels)
+// or of the matrix build.
+void write_form_factor_info(JsonWriter& json, const Problem& p) {
   json.key("form_factors").begin_object();
   json.field("method", p.spec.ff_method);
   json.field("parameters", p.ff_parameters);
@@ -92,7 +100,10 @@ void write_problem_info(JsonWriter& json, const Problem& p) {
                p.raw_diagnostics.reciprocity_defect_relative);
   }
   json.end_object();
+}
 
+// The work the scene let radlab skip.
+void write_left_out(JsonWriter& json, const Problem& p) {
   std::vector<std::string> left_out = p.method->left_out();
   if (p.scene().is_grey()) left_out.push_back("colour: one channel (every rho and E is grey)");
   if (p.system && p.system->two_level())
@@ -103,28 +114,39 @@ void write_problem_info(JsonWriter& json, const Problem& p) {
                              "against them; the solver's own error is not certified at checkpoints)"
                            : "dense matrix: none (rows streamed, no reference)");
   json.field("left_out", left_out);
+}
 
-  if (p.reference) {
-    const Reference& r = *p.reference;
-    json.key("reference").begin_object();
-    json.field("kind", r.kind);
-    json.field("method", r.method);
-    if (r.kind != "certified") {  // a stand-in: no bound to report, none implied
-      json.field("seconds", r.seconds);
-      json.end_object();
-      return;
-    }
-    json.field("certified_system", r.system);
-    json.field("bound_inf", r.bound_inf);
-    json.field("bound_relative", r.bound_relative);
-    json.field("residual_inf", r.residual_inf);
-    json.field("inverse_norm_bound", r.inverse_norm_bound);
-    json.field("q", r.q);
-    json.field("spectral_radius_upper", r.spectral_radius_upper);
-    json.field("refinements", r.refinements);
+void write_reference_info(JsonWriter& json, const Problem& p) {
+  if (!p.reference) return;
+  const Reference& r = *p.reference;
+  json.key("reference").begin_object();
+  json.field("kind", r.kind);
+  json.field("method", r.method);
+  if (r.kind != "certified") {  // a stand-in: no bound to report, none implied
     json.field("seconds", r.seconds);
     json.end_object();
+    return;
   }
+  json.field("certified_system", r.system);
+  json.field("bound_inf", r.bound_inf);
+  json.field("bound_relative", r.bound_relative);
+  json.field("residual_inf", r.residual_inf);
+  json.field("inverse_norm_bound", r.inverse_norm_bound);
+  json.field("q", r.q);
+  json.field("spectral_radius_upper", r.spectral_radius_upper);
+  json.field("refinements", r.refinements);
+  json.field("seconds", r.seconds);
+  json.end_object();
+}
+
+}  // namespace
+
+void write_problem_info(JsonWriter& json, const Problem& p) {
+  write_scene_info(json, p);
+  write_mesh_info(json, p);
+  write_form_factor_info(json, p);
+  write_left_out(json, p);
+  write_reference_info(json, p);
 }
 
 void write_solver_info(JsonWriter& json, const std::string& solver,
@@ -165,10 +187,8 @@ void write_run_result(JsonWriter& json, const Budget& budget, const RunResult& r
   json.end_object();
 }
 
-void write_solver_statistics(JsonWriter& json, const Solver& solver, const Problem* problem) {
-  auto statistics = solver.statistics();
-  if (problem)
-    for (auto& entry : final_system_statistics(*problem, solver)) statistics.push_back(entry);
+void write_solver_statistics(JsonWriter& json,
+                             const std::vector<std::pair<std::string, double>>& statistics) {
   if (statistics.empty()) return;
   json.key("solver_statistics").begin_object();
   for (const auto& [key, value] : statistics) json.field(key, value);

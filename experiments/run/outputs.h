@@ -32,11 +32,11 @@ void write_solver_info(JsonWriter& json, const std::string& solver,
 
 void write_run_result(JsonWriter& json, const Budget& budget, const RunResult& result);
 
-// The solver's own statistics (Solver::statistics(), e.g. hierarchical radiosity's Table 1) as
-// the object "solver_statistics"; nothing when it has none. With `problem`, adaptive-shooting on
-// two levels adds its final system's figures (final_system_statistics, two_level_problem.h).
-void write_solver_statistics(JsonWriter& json, const Solver& solver,
-                             const Problem* problem = nullptr);
+// A run's statistics (RunOutcome::statistics: Solver::statistics(), e.g. hierarchical radiosity's
+// Table 1, and adaptive-shooting's final system on two levels) as the object "solver_statistics";
+// nothing when there are none.
+void write_solver_statistics(JsonWriter& json,
+                             const std::vector<std::pair<std::string, double>>& statistics);
 
 // The command line, quoted, for run.json.
 std::string command_line(int argc, char** argv);

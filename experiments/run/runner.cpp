@@ -13,11 +13,18 @@
 
 namespace radlab {
 
-void Budget::validate() const {
-  if ((steps && *steps < 1) || (rows && *rows < 1) ||
-      (seconds && !(*seconds > 0 && std::isfinite(*seconds))) || (tol && !(*tol > 0 && *tol < 1)))
-    throw UsageError(
-        "run budget: steps and rows must be >= 1, seconds finite and > 0, tol in (0,1)");
+std::optional<BudgetViolation> budget_violation(const Budget& budget) {
+  if (budget.steps && *budget.steps < 1)
+    return BudgetViolation{"steps", "must be >= 1", std::to_string(*budget.steps)};
+  if (budget.rows && *budget.rows < 1)
+    return BudgetViolation{"rows", "must be >= 1", std::to_string(*budget.rows)};
+  if (budget.seconds && !(*budget.seconds > 0 && std::isfinite(*budget.seconds)))
+    return BudgetViolation{"seconds", "must be a finite number > 0",
+                           text::format_double(*budget.seconds)};
+  if (budget.tol && !(*budget.tol > 0 && *budget.tol < 1))
+    return BudgetViolation{"tol", "must lie in (0,1) (a bound relative to max B*)",
+                           text::format_double(*budget.tol)};
+  return std::nullopt;
 }
 
 const char* Budget::exhausted(long long step, unsigned long long rows_used,
@@ -90,94 +97,83 @@ class Evaluator {
                            std::to_string(step) + " (the solver diverged)");
     const Radiosity display = solver.display();
     const Radiosity* unshot = solver.unshot();
-    std::vector<double> residual;
-    if (problem_.has_matrix())
-      residual = residual_inf(*problem_.system, problem_.certified_matrix(), B);
-    else if (problem_.system->two_level() && problem_.reference)
-      residual = two_level_residual(problem_, B);  // from the patch rows (two_level_problem.h)
+    const std::vector<double> residual = residual_of(B);
     const double inverse_norm =
         problem_.reference ? problem_.reference->inverse_norm_bound : std::nan("");
     const auto area = problem_.system->area();
     const int channels = B.channels();
-
     double worst_residual = 0.0;
     for (double r : residual) worst_residual = std::max(worst_residual, r);
-    if (!residual.empty()) {
-      if (initial_residual_ < 0) initial_residual_ = worst_residual;
-      // Divergence: the residual grew by 1e8 over the initial one AND over ||E||_inf, the
-      // residual of B = 0. The absolute scale matters when the initial residual is near zero:
-      // a matrix whose rows never see a tiny lamp has residual ~0 at B = E, and any light the
-      // lamp's own row shoots "grows" it by orders of magnitude without anything diverging.
-      const double scale = std::max(initial_residual_, max_emission_);
-      if (worst_residual > 1e8 * std::max(scale, 1e-300) && worst_residual > 0)
-        throw NumericalError(labels_.run_id + ": diverging: residual grew from " +
-                             text::format_double(initial_residual_) + " to " +
-                             text::format_double(worst_residual) + " by step " +
-                             std::to_string(step) + ", 1e8 times both the initial residual and " +
-                             "||E||_inf = " + text::format_double(max_emission_));
-    }
+    if (!residual.empty()) check_divergence(worst_residual, step);
 
     // One row for the mean of the channels, then one per channel when there are three.
     std::vector<int> fields = {kMeanOfChannels};
     if (channels == 3) fields.insert(fields.end(), {0, 1, 2});
     const char* names[] = {"r", "g", "b"};
+    const std::string statistics = statistics_field(solver.statistics());
     for (int field : fields) {
-      TraceRow row;
-      row.run_id = labels_.run_id;
-      row.scene = labels_.scene;
-      row.solver = labels_.solver;
-      row.params = labels_.params;
-      row.channel = field == kMeanOfChannels ? "mean" : names[field];
-      row.step = step;
-      row.ff_rows = rows;
-      row.seconds = seconds;
-      row.rays = rays;
-      row.pair_evals = pair_evals;
-      row.reference_kind = problem_.reference ? problem_.reference->kind : "none";
-      row.solver_elements =
-          solver.solver_elements() > 0 ? solver.solver_elements() : problem_.system->size();
-      const double nan = std::nan("");
-      ErrorMetrics e, d;
-      ReflectedRms reflected;
+      TraceCheckpoint row{.labels = labels_,
+                          .problem = problem_,
+                          .solver = solver,
+                          .field = field,
+                          .channel = field == kMeanOfChannels ? "mean" : names[field],
+                          .step = step,
+                          .ff_rows = rows,
+                          .rays = rays,
+                          .pair_evals = pair_evals,
+                          .seconds = seconds,
+                          .B = B,
+                          .unshot = unshot,
+                          .measured = problem_.reference.has_value(),
+                          .errors = {},
+                          .display = {},
+                          .reflected = {},
+                          .residual_inf = std::nan(""),
+                          .bound_inf = std::nan(""),
+                          .statistics = statistics};
       if (problem_.reference) {
-        e = compare(B, problem_.reference->B, area, field);
-        d = compare(display, problem_.reference->B, area, field);
-        reflected =
+        row.errors = compare(B, problem_.reference->B, area, field);
+        row.display = compare(display, problem_.reference->B, area, field);
+        row.reflected =
             compare_reflected(B, problem_.reference->B, problem_.system->emission(), area, field);
       }
-      auto or_nan = [&](double v) { return problem_.reference ? v : nan; };
-      row.rms = or_nan(e.rms);
-      row.rms_rel = or_nan(e.rms_rel);
-      row.p_mean = or_nan(e.p_mean);
-      row.p_rms = or_nan(e.p_rms);
-      row.p_max = or_nan(e.p_max);
-      row.p_over = or_nan(e.p_over);
-      row.p_under = or_nan(e.p_under);
-      row.p_excluded = e.p_excluded;
-      row.rms_display = or_nan(d.rms);
-      row.rms_rel_display = or_nan(d.rms_rel);
-      row.p_mean_display = or_nan(d.p_mean);
-      row.p_rms_display = or_nan(d.p_rms);
-      row.p_max_display = or_nan(d.p_max);
-      row.rms_reflected = or_nan(reflected.rms);
-      row.rms_rel_reflected = or_nan(reflected.rms_rel);
       if (!residual.empty()) {
         row.residual_inf = field == kMeanOfChannels ? worst_residual : residual[size_t(field)];
         row.bound_inf = row.residual_inf * inverse_norm;
-      } else {
-        row.residual_inf = row.bound_inf = nan;
       }
-      row.unshot_power = unshot ? total_power(*unshot, area, field) : nan;
-      row.total_power = total_power(B, area, field);
       if (trace_) trace_->write(row);
       if (field == kMeanOfChannels) {
-        result.final_errors = e;
-        result.final_display_errors = d;
-        result.final_reflected = reflected;
+        result.final_errors = row.errors;
+        result.final_display_errors = row.display;
+        result.final_reflected = row.reflected;
       }
     }
     const double bound = residual.empty() ? std::nan("") : worst_residual * inverse_norm;
     return max_reference_ > 0 ? bound / max_reference_ : bound;
+  }
+
+  // ||E - (I - J) B||_inf per channel, from the matrix or the patch rows; empty without either.
+  std::vector<double> residual_of(const Radiosity& B) const {
+    if (problem_.has_matrix())
+      return residual_inf(*problem_.system, problem_.certified_matrix(), B);
+    if (problem_.system->two_level() && problem_.reference)
+      return two_level_residual(problem_, B);  // from the patch rows (two_level_problem.h)
+    return {};
+  }
+
+  // Divergence: the residual grew by 1e8 over the initial one AND over ||E||_inf, the residual
+  // of B = 0. The absolute scale matters when the initial residual is near zero: a matrix whose
+  // rows never see a tiny lamp has residual ~0 at B = E, and any light the lamp's own row shoots
+  // "grows" it by orders of magnitude without anything diverging.
+  void check_divergence(double worst_residual, long long step) {
+    if (initial_residual_ < 0) initial_residual_ = worst_residual;
+    const double scale = std::max(initial_residual_, max_emission_);
+    if (worst_residual > 1e8 * std::max(scale, 1e-300) && worst_residual > 0)
+      throw NumericalError(labels_.run_id + ": diverging: residual grew from " +
+                           text::format_double(initial_residual_) + " to " +
+                           text::format_double(worst_residual) + " by step " +
+                           std::to_string(step) + ", 1e8 times both the initial residual and " +
+                           "||E||_inf = " + text::format_double(max_emission_));
   }
 
   // max B* / max(B* - E): turns a bound relative to max B* into one relative to the reflected
@@ -236,39 +232,95 @@ void check_stagnation(const Problem& problem, const RunResult& result, double bo
                        "): " + why);
 }
 
-}  // namespace
-
-RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budget_in,
-                     const CheckpointSchedule& schedule, const RunLabels& labels,
-                     TraceWriter* trace, const CheckpointHook& hook) {
+// The mean-of-channels metrics of the checkpoint just evaluated, for the summary and the fits.
+CheckpointRecord checkpoint_record(const Problem& problem, const RunResult& result, long long step,
+                                   double seconds, double bound) {
   const System& system = *problem.system;
-  Budget budget = budget_in;
-  // Callers validate with the user's words (file:line, option name); this is the last guard
-  // against a budget that can never be reached, which would run forever.
-  budget.validate();
+  CheckpointRecord record;
+  record.step = step;
+  record.rows = system.rows_used();
+  record.pair_evals = system.pair_evaluations();
+  record.seconds = seconds;
+  const double nan = std::nan("");
+  const bool measured = problem.reference.has_value();
+  record.rms_rel = measured ? result.final_errors.rms_rel : nan;
+  record.p_mean = measured ? result.final_errors.p_mean : nan;
+  record.rms_rel_display = measured ? result.final_display_errors.rms_rel : nan;
+  record.p_mean_display = measured ? result.final_display_errors.p_mean : nan;
+  record.rms_rel_reflected = measured ? result.final_reflected.rms_rel : nan;
+  record.bound_relative = bound;
+  return record;
+}
+
+// The budget the run keeps: never unbounded (no budget: 3n steps; a tolerance alone: capped at
+// 1000 sweeps' worth of rows, and stagnation stops it sooner), and a tolerance on the reflected
+// light converted once to the max-B* scale the bounds are computed in (`scale` = max B* /
+// max(B* - E)), so the stop test and the stagnation test need no second scale.
+Budget kept_budget(const Budget& asked, const Problem& problem, double scale) {
+  const System& system = *problem.system;
+  Budget budget = asked;
   if (budget.tol && !problem.reference)
     throw UsageError("--tol needs the reference (it bounds the error with its certificate)");
-  // Never run unbounded: a tolerance alone is capped at 1000 sweeps' worth of rows, and
-  // stagnation stops it sooner.
   if (budget.empty()) budget.steps = 3 * static_cast<long long>(system.size());
   if (!budget.steps && !budget.rows && !budget.seconds)
     budget.rows = 1000 * static_cast<long long>(system.size());
-
-  RunResult result;
-  Evaluator evaluator(problem, labels, trace);
-  // A tolerance on the reflected light is converted once to the max-B* scale the bounds are
-  // computed in, so the stop test and the stagnation test need no second scale.
-  const double scale = evaluator.reflected_scale();
   if (budget.tol && budget.tol_of_reflected) {
     if (!std::isfinite(scale))
       throw UsageError("--tol-of reflected: the reference reflects no light (max(B* - E) = 0)");
     budget.tol = *budget.tol / scale;
   }
-  const std::string tolerance_text =
-      !budget.tol               ? std::string()
-      : budget.tol_of_reflected ? text::format_double(*budget.tol) + " of max B*, i.e. " +
-                                      text::format_double(*budget_in.tol) + " of max(B* - E)"
-                                : text::format_double(*budget.tol) + " of max B*";
+  return budget;
+}
+
+// The tolerance as the messages say it: "1e-06 of max B*", or "... i.e. 1e-3 of max(B* - E)".
+std::string tolerance_text(const Budget& budget, const Budget& asked) {
+  if (!budget.tol) return std::string();
+  if (!budget.tol_of_reflected) return text::format_double(*budget.tol) + " of max B*";
+  return text::format_double(*budget.tol) + " of max B*, i.e. " + text::format_double(*asked.tol) +
+         " of max(B* - E)";
+}
+
+// The run's totals and, with a tolerance, its verdict.
+void finish_result(RunResult& result, const Problem& problem, const Solver& solver,
+                   const Budget& budget, const Budget& asked, double bound, double scale,
+                   double seconds, long long step) {
+  const System& system = *problem.system;
+  result.steps = step;
+  result.rows = system.rows_used();
+  result.rays = system.rays_used();
+  result.pair_evals = system.pair_evaluations();
+  result.reference_kind = problem.reference ? problem.reference->kind : "none";
+  result.seconds = seconds;
+  result.final_bound_relative = bound;
+  result.final_bound_relative_reflected = bound * scale;
+  result.tolerance_of_reflected = budget.tol_of_reflected;
+  result.statistics = solver.statistics();
+  if (!budget.tol) return;
+  result.tolerance_asked = true;
+  result.tolerance_reached = bound <= *budget.tol;
+  if (result.tolerance_reached) return;
+  const std::string of = budget.tol_of_reflected ? " of max(B* - E)" : " of max B*";
+  const double reached = budget.tol_of_reflected ? bound * scale : bound;
+  result.tolerance_message = "tolerance " + text::format_double(asked.tol.value_or(0.0)) + of +
+                             " not reached: certified bound " + text::format_double(reached) + of +
+                             " when the run stopped (" + result.stop_reason + ")" +
+                             (asked.steps || asked.rows || asked.seconds
+                                  ? ""
+                                  : " (a tolerance alone is capped at 1000 sweeps' worth of rows)");
+}
+
+}  // namespace
+
+RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budget_in,
+                     const CheckpointSchedule& schedule, const RunLabels& labels,
+                     TraceWriter* trace, const CheckpointHook& hook) {
+  // The budget was validated where the run's request was built (budget_violation).
+  const System& system = *problem.system;
+  RunResult result;
+  Evaluator evaluator(problem, labels, trace);
+  const double scale = evaluator.reflected_scale();
+  const Budget budget = kept_budget(budget_in, problem, scale);
+  const std::string tolerance = tolerance_text(budget, budget_in);
   using Clock = std::chrono::steady_clock;
   system.reset_counters();
   auto t0 = Clock::now();
@@ -284,20 +336,7 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
   auto checkpoint = [&]() {
     const double bound = evaluator.evaluate(solver, step, system.rows_used(), seconds,
                                             system.rays_used(), system.pair_evaluations(), result);
-    CheckpointRecord record;
-    record.step = step;
-    record.rows = system.rows_used();
-    record.pair_evals = system.pair_evaluations();
-    record.seconds = seconds;
-    const double nan = std::nan("");
-    const bool measured = problem.reference.has_value();
-    record.rms_rel = measured ? result.final_errors.rms_rel : nan;
-    record.p_mean = measured ? result.final_errors.p_mean : nan;
-    record.rms_rel_display = measured ? result.final_display_errors.rms_rel : nan;
-    record.p_mean_display = measured ? result.final_display_errors.p_mean : nan;
-    record.rms_rel_reflected = measured ? result.final_reflected.rms_rel : nan;
-    record.bound_relative = bound;
-    result.history.push_back(record);
+    result.history.push_back(checkpoint_record(problem, result, step, seconds, bound));
     if (hook) hook(step, solver);
     return bound;
   };
@@ -323,7 +362,7 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
     if (step == next_checkpoint || at_end) {
       bound = checkpoint();
       next_checkpoint = schedule.next_after(step);
-      if (budget.tol) check_stagnation(problem, result, bound, tolerance_text, labels.run_id);
+      if (budget.tol) check_stagnation(problem, result, bound, tolerance, labels.run_id);
     }
     if (info.finished) {
       result.stop_reason = "solver finished";
@@ -331,29 +370,7 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
     }
   }
   progress.finish(result.stop_reason);
-  result.steps = step;
-  result.rows = system.rows_used();
-  result.rays = system.rays_used();
-  result.pair_evals = system.pair_evaluations();
-  result.reference_kind = problem.reference ? problem.reference->kind : "none";
-  result.seconds = seconds;
-  result.final_bound_relative = bound;
-  result.final_bound_relative_reflected = bound * scale;
-  result.tolerance_of_reflected = budget.tol_of_reflected;
-  if (budget.tol) {
-    result.tolerance_asked = true;
-    result.tolerance_reached = bound <= *budget.tol;
-    const std::string of = budget.tol_of_reflected ? " of max(B* - E)" : " of max B*";
-    const double asked = budget_in.tol.value_or(0.0);
-    const double reached = budget.tol_of_reflected ? bound * scale : bound;
-    if (!result.tolerance_reached)
-      result.tolerance_message =
-          "tolerance " + text::format_double(asked) + of + " not reached: certified bound " +
-          text::format_double(reached) + of + " when the run stopped (" + result.stop_reason + ")" +
-          (budget_in.steps || budget_in.rows || budget_in.seconds
-               ? ""
-               : " (a tolerance alone is capped at 1000 sweeps' worth of rows)");
-  }
+  finish_result(result, problem, solver, budget, budget_in, bound, scale, seconds, step);
   if (trace) trace->flush();
   return result;
 }

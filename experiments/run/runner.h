@@ -30,14 +30,20 @@ struct Budget {
 
   bool empty() const { return !steps && !rows && !seconds && !tol; }
   std::string describe() const;
-  // Throws a UsageError unless steps and rows are >= 1, seconds finite and > 0, tol in (0,1): a
-  // budget that can never be reached would run forever. The command line and experiment files
-  // check first, in the user's words (option name, file:line); this is the last guard.
-  void validate() const;
   // The stop reason ("step budget", "row budget", "time budget") once the step, row or time
   // budget is used up, else null. The tolerance is checked by the runner (it needs the bound).
   const char* exhausted(long long step, unsigned long long rows, double seconds) const;
 };
+
+// A budget field that can never be reached (a run would go on forever): steps or rows < 1,
+// seconds not finite and > 0, tol outside (0,1). `field` is the Budget member's name
+// ("steps", "rows", "seconds", "tol"), `requirement` what it must be, `given` its value.
+struct BudgetViolation {
+  std::string field, requirement, given;
+};
+// The rules, written once; whoever builds a run request (the command line, an experiment file)
+// calls it and reports the violation in its user's words (--steps, file:line budget.steps).
+std::optional<BudgetViolation> budget_violation(const Budget& budget);
 
 struct CheckpointSchedule {
   long long every_step_until = 10;  // evaluate at steps 0..every_step_until
@@ -85,6 +91,10 @@ struct RunResult {
   bool tolerance_reached = false;
   // "tolerance 1e-10 not reached: ..." when asked and not reached, else empty.
   std::string tolerance_message;
+  // The solver's own counters at the end (Solver::statistics(): links, rays, refinements ...),
+  // and what execute_run adds (adaptive-shooting's final system on two levels): run.json's
+  // solver_statistics and the summary's solver_statistics column.
+  std::vector<std::pair<std::string, double>> statistics;
 };
 
 // Called at every checkpoint after the metrics are written (e.g. to save images).

@@ -8,13 +8,11 @@
 #include <vector>
 
 #include "core/csv.h"
+#include "experiments/run/columns.h"
 #include "experiments/run/runner.h"
+#include "metrics/convergence_fit.h"
 
 namespace radlab {
-
-const std::vector<std::string>& summary_columns();
-// Columns whose values depend on the machine's speed (left out when comparing re-runs).
-const std::vector<std::string>& summary_time_columns();
 
 struct SummaryInputs {
   size_t run_index = 0;
@@ -35,6 +33,24 @@ enum class ReachAxis { kRows, kSeconds, kPairEvals };
 // log(error) between the bracketing checkpoints (NaN if never reached).
 double first_reach(const std::vector<CheckpointRecord>& history, double threshold, ReachAxis axis,
                    ReachMetric metric);
+
+// What one summary row is computed from: the run's inputs, its result (null for a failed run:
+// then only the columns that need none are filled, the rest are empty) and the convergence fits,
+// computed once.
+struct SummaryRecord {
+  const SummaryInputs& in;
+  const RunResult* result = nullptr;
+  std::string stop_reason;  // the result's, or "failed: ..."
+  std::string error;        // empty unless the run failed
+  ConvergenceFit by_rows, by_seconds, by_sweeps;
+};
+
+// summary.csv's columns, in order (columns.h); the header, every row and docs/outputs.md's table
+// come from it.
+const ColumnTable<SummaryRecord>& summary_table();
+std::vector<std::string> summary_columns();
+// Columns whose values depend on the machine's speed (left out when comparing re-runs).
+std::vector<std::string> summary_time_columns();
 
 void write_summary_row(CsvWriter& csv, const SummaryInputs& in, const RunResult& result);
 

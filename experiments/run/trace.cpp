@@ -1,55 +1,120 @@
 #include "experiments/run/trace.h"
 
-namespace radlab {
+#include <cmath>
+#include <cstdio>
 
-const std::vector<std::string>& trace_columns() {
-  static const std::vector<std::string> columns = {"run_id",
-                                                   "scene",
-                                                   "solver",
-                                                   "params",
-                                                   "channel",
-                                                   "step",
-                                                   "ff_rows",
-                                                   "seconds",
-                                                   "rms",
-                                                   "rms_rel",
-                                                   "p_mean",
-                                                   "p_rms",
-                                                   "p_max",
-                                                   "p_over",
-                                                   "p_under",
-                                                   "p_excluded",
-                                                   "rms_display",
-                                                   "rms_rel_display",
-                                                   "p_mean_display",
-                                                   "p_rms_display",
-                                                   "p_max_display",
-                                                   "residual_inf",
-                                                   "bound_inf",
-                                                   "unshot_power",
-                                                   "total_power",
-                                                   "rays",
-                                                   "pair_evals",
-                                                   "rms_reflected",
-                                                   "rms_rel_reflected",
-                                                   "reference_kind",
-                                                   "solver_elements"};
-  return columns;
+#include "core/text.h"
+#include "experiments/problem/problem.h"
+#include "experiments/run/runner.h"
+
+namespace radlab {
+namespace {
+
+using Row = TraceCheckpoint;
+using Write = std::function<void(CsvWriter&, const Row&)>;
+
+// An error metric: empty (NaN) without a reference to measure against.
+Write measured(double (*value)(const Row&)) {
+  return [value](CsvWriter& csv, const Row& r) { csv.add(r.measured ? value(r) : std::nan("")); };
 }
 
-TraceWriter::TraceWriter(const std::string& path) : csv_(path, trace_columns()) {}
+ColumnTable<TraceCheckpoint> make_trace_table() {
+  // clang-format off
+  return {
+    {"run_id", "`solver/scene:NAME[/subdiv:K\\|/element_size:S][/seed:S]/key:value...` (NAME: a builtin's spec or a scene file's stem), the same for `solve` and `run`; unique per run",
+     [](CsvWriter& c, const Row& r) { c.add(r.labels.run_id); }},
+    {"scene", "the scene spec", [](CsvWriter& c, const Row& r) { c.add(r.labels.scene); }},
+    {"solver", "the solver's name", [](CsvWriter& c, const Row& r) { c.add(r.labels.solver); }},
+    {"params", "the solver's parameters as given, `k=v,...`",
+     [](CsvWriter& c, const Row& r) { c.add(r.labels.params); }},
+    {"channel", "`mean` (mean of the colour channels) or `r`, `g`, `b`",
+     [](CsvWriter& c, const Row& r) { c.add(r.channel); }},
+    {"step", "solver steps taken (0 = the initial state)",
+     [](CsvWriter& c, const Row& r) { c.add(r.step); }},
+    {"ff_rows", "form-factor rows read so far (the x-axis of the papers' plots: one \"hemicube\")",
+     [](CsvWriter& c, const Row& r) { c.add(r.ff_rows); }},
+    {"seconds", "solver time so far; metric evaluation excluded",
+     [](CsvWriter& c, const Row& r) { c.add(r.seconds); }, true},
+    {"rms", "Cohen 1988 eq. 14, area-weighted", measured([](const Row& r) { return r.errors.rms; })},
+    {"rms_rel", "`rms` divided by the reference's area-weighted RMS",
+     measured([](const Row& r) { return r.errors.rms_rel; })},
+    {"p_mean", "Wu & Wang p-error: area-weighted mean \\|p\\|",
+     measured([](const Row& r) { return r.errors.p_mean; })},
+    {"p_rms", "area-weighted RMS of p", measured([](const Row& r) { return r.errors.p_rms; })},
+    {"p_max", "max \\|p\\|", measured([](const Row& r) { return r.errors.p_max; })},
+    {"p_over", "area fraction with p > +1%", measured([](const Row& r) { return r.errors.p_over; })},
+    {"p_under", "area fraction with p < −1%",
+     measured([](const Row& r) { return r.errors.p_under; })},
+    {"p_excluded", "elements left out of p-error (reference ≤ 1e-9 of its max)",
+     [](CsvWriter& c, const Row& r) { c.add(static_cast<unsigned long long>(r.errors.p_excluded)); }},
+    {"rms_display", "`rms` of `display()` (e.g. with Cohen's ambient term)",
+     measured([](const Row& r) { return r.display.rms; })},
+    {"rms_rel_display", "`rms_rel` of `display()`",
+     measured([](const Row& r) { return r.display.rms_rel; })},
+    {"p_mean_display", "`p_mean` of `display()`",
+     measured([](const Row& r) { return r.display.p_mean; })},
+    {"p_rms_display", "`p_rms` of `display()`",
+     measured([](const Row& r) { return r.display.p_rms; })},
+    {"p_max_display", "`p_max` of `display()`",
+     measured([](const Row& r) { return r.display.p_max; })},
+    {"residual_inf", "`‖E − (I − diag(ρ)F) B‖∞` (worst channel for `mean`), with its rounding bound",
+     [](CsvWriter& c, const Row& r) { c.add(r.residual_inf); }},
+    {"bound_inf", "certified `‖B − B*‖∞ ≤ residual_inf × ‖(I−J)⁻¹‖∞`",
+     [](CsvWriter& c, const Row& r) { c.add(r.bound_inf); }},
+    {"unshot_power", "`Σ A_i ΔB_i` for shooting solvers",
+     [](CsvWriter& c, const Row& r) {
+       c.add(r.unshot ? total_power(*r.unshot, r.problem.system->area(), r.field) : std::nan(""));
+     }},
+    {"total_power", "`Σ A_i B_i`",
+     [](CsvWriter& c, const Row& r) { c.add(total_power(r.B, r.problem.system->area(), r.field)); }},
+    {"rays", "visibility rays charged to the solver (on-the-fly rows, and rays a solver casts itself)",
+     [](CsvWriter& c, const Row& r) { c.add(r.rays); }},
+    {"pair_evals", "the work column common to every solver: element-pair form factors evaluated so far. A flat row counts n (it holds n pair form factors, cached or not); a hierarchical link, a refinement estimate or a patch-to-element entry counts 1. Plots offer it as an x-axis beside `ff_rows` and `seconds`",
+     [](CsvWriter& c, const Row& r) { c.add(r.pair_evals); }},
+    {"rms_reflected", "Cohen's eq. 14 on the reflected part, `B − E` against `B* − E`: the emitters, right from step 0 for every solver, drop out (the plain `rms_rel` is already ≈ 0.1 at B = E on the Cornell box)",
+     measured([](const Row& r) { return r.reflected.rms; })},
+    {"rms_rel_reflected", "`rms_reflected` relative to the reference's; summary.csv's `*_to_rms_rel_reflected_*` columns use it",
+     measured([](const Row& r) { return r.reflected.rms_rel; })},
+    {"reference_kind", "what the errors are measured against: `certified` (the certified reference of the same system), the name of an uncertified stand-in (e.g. a much finer hierarchical run on scenes too large for the dense reference), or `none`",
+     [](CsvWriter& c, const Row& r) {
+       c.add(r.problem.reference ? r.problem.reference->kind : std::string("none"));
+     }},
+    {"solver_elements", "unknowns the solver itself holds (the mesh's n for flat solvers, leaves for hierarchical radiosity, current elements for adaptive subdivision): a change marks a change of the solver's mesh",
+     [](CsvWriter& c, const Row& r) {
+       const size_t own = r.solver.solver_elements();
+       c.add(own > 0 ? own : r.problem.system->size());
+     }},
+    {"solver_statistics", "the solver's own counters so far (`Solver::statistics()`: hierarchical radiosity's nodes, links, rays, refinements ...) as `name=value;...`; empty for solvers without any. Those that measure the machine (time, peak RSS) are in run.json only",
+     [](CsvWriter& c, const Row& r) { c.add(r.statistics); }},
+  };
+  // clang-format on
+}
 
-void TraceWriter::write(const TraceRow& r) {
-  csv_.add(r.run_id).add(r.scene).add(r.solver).add(r.params).add(r.channel);
-  csv_.add(r.step).add(r.ff_rows).add(r.seconds);
-  csv_.add(r.rms).add(r.rms_rel).add(r.p_mean).add(r.p_rms).add(r.p_max).add(r.p_over);
-  csv_.add(r.p_under).add(r.p_excluded);
-  csv_.add(r.rms_display).add(r.rms_rel_display).add(r.p_mean_display).add(r.p_rms_display);
-  csv_.add(r.p_max_display);
-  csv_.add(r.residual_inf).add(r.bound_inf).add(r.unshot_power).add(r.total_power).add(r.rays);
-  csv_.add(r.pair_evals).add(r.rms_reflected).add(r.rms_rel_reflected).add(r.reference_kind);
-  csv_.add(r.solver_elements);
-  csv_.end_row();
+}  // namespace
+
+const ColumnTable<TraceCheckpoint>& trace_table() {
+  static const ColumnTable<TraceCheckpoint> table = make_trace_table();
+  return table;
+}
+
+std::vector<std::string> trace_columns() {
+  return column_names(trace_table());
+}
+
+TraceWriter::TraceWriter(const std::string& path, const ColumnTable<TraceCheckpoint>& table)
+    : table_(table), csv_(path, column_names(table)) {}
+
+std::string statistics_field(const std::vector<std::pair<std::string, double>>& statistics) {
+  std::string field;
+  for (const auto& [name, value] : statistics) {
+    // Measurements of the machine, not of the computation: time and the process's peak memory.
+    if (name.find("seconds") != std::string::npos || name.find("rss") != std::string::npos)
+      continue;
+    char number[32];
+    std::snprintf(number, sizeof number, "%.10g", value);
+    field += (field.empty() ? "" : ";") + name + "=" + number;
+  }
+  return field;
 }
 
 }  // namespace radlab

@@ -1,5 +1,7 @@
 // The trace CSV (DESIGN §7): long format, one row per checkpoint and channel, frozen columns.
-// Columns are only ever appended, never renamed or reordered (docs/outputs.md lists them).
+// The columns are a table (trace_table(): name, meaning, how it is computed; columns.h): the
+// header, every row and docs/outputs.md's column table come from it. Columns are only ever
+// appended, never renamed or reordered.
 #pragma once
 
 #include <memory>
@@ -7,41 +9,62 @@
 #include <vector>
 
 #include "core/csv.h"
+#include "core/radiosity.h"
+#include "experiments/run/columns.h"
+#include "metrics/error_metrics.h"
 
 namespace radlab {
 
-// The frozen trace columns, in order.
-const std::vector<std::string>& trace_columns();
+struct Problem;
+class Solver;
+struct RunLabels;
 
-struct TraceRow {
-  std::string run_id, scene, solver, params;
+// What one trace row is computed from: the run, the checkpoint, the field (the mean of the colour
+// channels or one channel) and the metrics every error column shares, computed once.
+struct TraceCheckpoint {
+  const RunLabels& labels;
+  const Problem& problem;
+  const Solver& solver;
+  int field = 0;        // kMeanOfChannels, or a channel
   std::string channel;  // "mean" (of the colour channels), or "r", "g", "b"
   long long step = 0;
-  unsigned long long ff_rows = 0;
+  unsigned long long ff_rows = 0, rays = 0, pair_evals = 0;
   double seconds = 0.0;
-  double rms, rms_rel, p_mean, p_rms, p_max, p_over, p_under;
-  unsigned long long p_excluded = 0;
-  double rms_display, rms_rel_display, p_mean_display, p_rms_display, p_max_display;
-  double residual_inf, bound_inf, unshot_power, total_power;
-  unsigned long long rays = 0;
-  // Appended columns (docs/outputs.md):
-  unsigned long long pair_evals = 0;  // element-pair form factors evaluated (a flat row counts n)
-  double rms_reflected, rms_rel_reflected;  // eq. 14 on B - E (metrics/error_metrics.h)
-  std::string reference_kind;               // "certified", an uncertified stand-in, or "none"
-  unsigned long long solver_elements = 0;   // unknowns the solver holds (a change = new mesh)
+  const Radiosity& B;         // solution()
+  const Radiosity* unshot;    // unshot(), for shooting solvers
+  bool measured = false;      // a reference exists: the error columns apply
+  ErrorMetrics errors;        // of solution() against the reference
+  ErrorMetrics display;       // of display()
+  ReflectedRms reflected;     // of solution() - E against B* - E
+  double residual_inf = 0.0;  // NaN without a matrix or patch rows to take it with
+  double bound_inf = 0.0;
+  std::string statistics;  // statistics_field(solver.statistics()) at this checkpoint
 };
+
+// The trace's columns, in order.
+const ColumnTable<TraceCheckpoint>& trace_table();
+// Their names: the trace's header.
+std::vector<std::string> trace_columns();
 
 class TraceWriter {
  public:
-  explicit TraceWriter(const std::string& path);
-  void write(const TraceRow& row);
+  // A table other than trace_table() (a tool's own, or a test's with a metric appended).
+  explicit TraceWriter(const std::string& path,
+                       const ColumnTable<TraceCheckpoint>& table = trace_table());
+  void write(const TraceCheckpoint& checkpoint) { write_columns(csv_, table_, checkpoint); }
   void flush() { csv_.flush(); }
   // Closes, checks and renames the file into place (core/csv.h); throws InputError on
   // failure.
-  void close() { csv_.close(); }
+  void close() {
+    closed_ = true;  // a failure to close is not retried
+    csv_.close();
+  }
+  bool closed() const { return closed_; }
 
  private:
+  ColumnTable<TraceCheckpoint> table_;
   CsvWriter csv_;
+  bool closed_ = false;
 };
 
 }  // namespace radlab

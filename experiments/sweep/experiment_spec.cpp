@@ -258,25 +258,14 @@ void read_budget(const Reader& r, const toml::table& root, ExperimentSpec& spec)
   if (const toml::table* b = root["budget"].as_table()) {
     r.only(*b, {"steps", "rows", "seconds", "tol", "tol_of"}, "[budget]");
     // A budget that cannot mean anything is an error, never a silent default (or a hang: a NaN
-    // time limit is never reached).
-    if (auto n = (*b)["steps"]) {
-      spec.budget.steps = r.integer(*n.node(), "budget.steps");
-      if (spec.budget.steps < 1) r.fail(*n.node(), "budget.steps must be >= 1");
-    }
-    if (auto n = (*b)["rows"]) {
-      spec.budget.rows = r.integer(*n.node(), "budget.rows");
-      if (spec.budget.rows < 1) r.fail(*n.node(), "budget.rows must be >= 1");
-    }
-    if (auto n = (*b)["seconds"]) {
-      spec.budget.seconds = r.number(*n.node(), "budget.seconds");
-      if (!(*spec.budget.seconds > 0 && std::isfinite(*spec.budget.seconds)))
-        r.fail(*n.node(), "budget.seconds must be a finite number > 0");
-    }
-    if (auto n = (*b)["tol"]) {
-      spec.budget.tol = r.number(*n.node(), "budget.tol");
-      if (!(*spec.budget.tol > 0 && *spec.budget.tol < 1))
-        r.fail(*n.node(), "budget.tol must lie in (0,1) (a bound relative to max B*)");
-    }
+    // time limit is never reached); the rules are budget_violation's, the line the key's.
+    if (auto n = (*b)["steps"]) spec.budget.steps = r.integer(*n.node(), "budget.steps");
+    if (auto n = (*b)["rows"]) spec.budget.rows = r.integer(*n.node(), "budget.rows");
+    if (auto n = (*b)["seconds"]) spec.budget.seconds = r.number(*n.node(), "budget.seconds");
+    if (auto n = (*b)["tol"]) spec.budget.tol = r.number(*n.node(), "budget.tol");
+    if (auto violation = budget_violation(spec.budget))
+      r.fail(*(*b)[violation->field].node(),
+             "budget." + violation->field + " " + violation->requirement);
     // What the tolerance is relative to, as `radlab solve --tol-of`: max B* (the default) or the
     // reflected light max(B* - E), which a tiny bright emitter would otherwise dominate.
     if (auto n = (*b)["tol_of"]) {

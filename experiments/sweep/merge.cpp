@@ -139,22 +139,10 @@ Json merged_array(const std::vector<Shard>& shards, const std::string& key,
   return out;
 }
 
-}  // namespace
-
-size_t merge_sweeps(const std::vector<std::string>& dirs, const std::string& out_dir,
-                    const std::string& command) {
-  MergeOptions options;
-  options.command = command;
-  return merge_shards(dirs, out_dir, options);
-}
-
-size_t merge_shards(const std::vector<std::string>& dirs, const std::string& out_dir,
-                    const MergeOptions& options) {
-  if (dirs.empty()) throw UsageError("merge: give at least one shard folder");
-  if (out_dir.empty()) throw UsageError("merge: give an output folder (--out)");
-
-  // The output may not be, lie in, or contain a shard: writing it would damage the shard.
-  const fs::path out = absolute_path(out_dir);
+// The output may not be, lie in, or contain a shard (writing it would damage the shard), and
+// must be new, empty or a previous sweep.
+void check_output_folder(const std::vector<std::string>& dirs, const std::string& out_dir,
+                         const fs::path& out) {
   for (const std::string& dir : dirs) {
     const fs::path shard = absolute_path(dir);
     if (within(out, shard))
@@ -170,24 +158,25 @@ size_t merge_shards(const std::vector<std::string>& dirs, const std::string& out
       throw UsageError("merge: --out " + out_dir +
                        " is not empty and holds no sweep; choose an empty or new folder");
   }
+}
 
-  // Read and check everything before writing anything.
-  std::vector<Shard> shards;
-  for (const std::string& dir : dirs) shards.push_back(read_shard(dir));
+// The shards are of one sweep: the same experiment, plan, build and columns, and one split.
+void check_shards_agree(const std::vector<Shard>& shards) {
   const Shard& first = shards.front();
+  struct Check {
+    const char* key;
+    bool in_build;
+    const char* meaning;
+  };
+  const Check checks[] = {
+      {"name", false, "shards of different experiments"},
+      {"experiment_digest", false, "the experiment file was edited between the shards"},
+      {"plan_digest", false, "the shards planned different runs"},
+      {"runs_total", false, "the shards planned different runs"},
+      {"git_sha", true, "the shards were run by different builds"},
+      {"source_hash", true, "the shards were run by different form-factor code"}};
   for (const Shard& s : shards) {
-    struct Check {
-      const char* key;
-      bool in_build;
-      const char* meaning;
-    };
-    for (const Check& c :
-         {Check{"name", false, "shards of different experiments"},
-          Check{"experiment_digest", false, "the experiment file was edited between the shards"},
-          Check{"plan_digest", false, "the shards planned different runs"},
-          Check{"runs_total", false, "the shards planned different runs"},
-          Check{"git_sha", true, "the shards were run by different builds"},
-          Check{"source_hash", true, "the shards were run by different form-factor code"}}) {
+    for (const Check& c : checks) {
       const std::string a = required(first, c.key, c.in_build);
       const std::string b = required(s, c.key, c.in_build);
       if (a != b)
@@ -205,72 +194,79 @@ size_t merge_shards(const std::vector<std::string>& dirs, const std::string& out
                        "-way split, " + first.dir + " of a " + std::to_string(first.count) +
                        "-way split");
   }
-  const long long runs_total = std::stoll(required(first, "runs_total"));
+}
 
-  // Summary rows: each shard's are the runs its sweep.json lists, of its shard; none twice.
-  std::vector<std::pair<long long, const std::vector<std::string>*>> ordered;
+using Row = std::vector<std::string>;
+using OrderedRows = std::vector<std::pair<long long, const Row*>>;
+
+// The run ids a shard's sweep.json lists (their file stems are noted for copying its files).
+std::set<std::string> listed_runs(Shard& s) {
+  std::set<std::string> listed;
+  auto runs = s.sweep.find("runs");
+  if (runs == s.sweep.end() || !runs->is_array())
+    throw InputError(s.dir + "/sweep.json: no 'runs' list");
+  for (const Json& id : *runs) {
+    if (!id.is_string()) throw InputError(s.dir + "/sweep.json: a run id is not a string");
+    listed.insert(id.get<std::string>());
+    s.stems.insert(file_stem(id.get<std::string>()));
+  }
+  return listed;
+}
+
+// One shard's summary rows, by run index: the runs its sweep.json lists, of its shard, none in
+// another shard (`seen`: run id -> shard folder).
+void add_summary_rows(Shard& s, long long runs_total, std::map<std::string, std::string>& seen,
+                      OrderedRows& ordered) {
+  const size_t index_column = s.summary.column("run_index");
+  const size_t id_column = s.summary.column("run_id");
+  const std::set<std::string> listed = listed_runs(s);
+  std::set<std::string> in_summary;
+  for (const auto& row : s.summary.rows) {
+    auto index = text::parse_int(row[index_column]);
+    if (!index || *index < 0 || *index >= runs_total)
+      throw InputError(s.summary.path + ": bad run_index '" + row[index_column] + "'");
+    if (*index % s.count != s.index)
+      throw InputError(s.summary.path + ": run " + row[id_column] + " (index " + row[index_column] +
+                       ") does not belong to shard " + std::to_string(s.index) + "/" +
+                       std::to_string(s.count));
+    if (!seen.emplace(row[id_column], s.dir).second)
+      throw InputError("merge: run '" + row[id_column] + "' is in " + seen[row[id_column]] +
+                       " and in " + s.dir);
+    in_summary.insert(row[id_column]);
+    ordered.emplace_back(*index, &row);
+  }
+  if (in_summary != listed)
+    throw InputError("merge: " + s.summary.path + " holds " + std::to_string(in_summary.size()) +
+                     " runs but " + s.dir + "/sweep.json lists " + std::to_string(listed.size()) +
+                     " (a damaged or mixed folder)");
+}
+
+// Every shard's summary rows in run order; no shard twice, no run index twice.
+OrderedRows ordered_summary_rows(std::vector<Shard>& shards, long long runs_total,
+                                 std::map<int, std::string>& shard_seen) {
+  OrderedRows ordered;
   std::map<std::string, std::string> seen;  // run_id -> shard folder
-  std::map<int, std::string> shard_seen;    // shard index -> folder
   for (Shard& s : shards) {
     if (!shard_seen.emplace(s.index, s.dir).second)
       throw InputError("merge: " + s.dir + " and " + shard_seen[s.index] + " are both shard " +
                        std::to_string(s.index) + "/" + std::to_string(s.count));
-    const size_t index_column = s.summary.column("run_index");
-    const size_t id_column = s.summary.column("run_id");
-    std::set<std::string> listed;
-    auto runs = s.sweep.find("runs");
-    if (runs == s.sweep.end() || !runs->is_array())
-      throw InputError(s.dir + "/sweep.json: no 'runs' list");
-    for (const Json& id : *runs) {
-      if (!id.is_string()) throw InputError(s.dir + "/sweep.json: a run id is not a string");
-      listed.insert(id.get<std::string>());
-      s.stems.insert(file_stem(id.get<std::string>()));
-    }
-    std::set<std::string> in_summary;
-    for (const auto& row : s.summary.rows) {
-      auto index = text::parse_int(row[index_column]);
-      if (!index || *index < 0 || *index >= runs_total)
-        throw InputError(s.summary.path + ": bad run_index '" + row[index_column] + "'");
-      if (*index % s.count != s.index)
-        throw InputError(s.summary.path + ": run " + row[id_column] + " (index " +
-                         row[index_column] + ") does not belong to shard " +
-                         std::to_string(s.index) + "/" + std::to_string(s.count));
-      if (!seen.emplace(row[id_column], s.dir).second)
-        throw InputError("merge: run '" + row[id_column] + "' is in " + seen[row[id_column]] +
-                         " and in " + s.dir);
-      in_summary.insert(row[id_column]);
-      ordered.emplace_back(*index, &row);
-    }
-    if (in_summary != listed)
-      throw InputError("merge: " + s.summary.path + " holds " + std::to_string(in_summary.size()) +
-                       " runs but " + s.dir + "/sweep.json lists " + std::to_string(listed.size()) +
-                       " (a damaged or mixed folder)");
+    add_summary_rows(s, runs_total, seen, ordered);
   }
   std::sort(ordered.begin(), ordered.end(),
             [](const auto& a, const auto& b) { return a.first < b.first; });
   for (size_t k = 1; k < ordered.size(); ++k)
     if (ordered[k].first == ordered[k - 1].first)
       throw InputError("merge: two runs have run_index " + std::to_string(ordered[k].first));
+  return ordered;
+}
 
-  // Every run of the sweep, or a visible refusal.
-  std::vector<std::string> missing_shards;
-  for (int i = 0; i < first.count; ++i)
-    if (!shard_seen.count(i))
-      missing_shards.push_back(std::to_string(i) + "/" + std::to_string(first.count));
-  const long long missing = runs_total - static_cast<long long>(ordered.size());
-  if (missing != 0 && !options.allow_incomplete)
-    throw InputError("merge: the shards hold " + std::to_string(ordered.size()) + " of the " +
-                     std::to_string(runs_total) + " runs of the sweep" +
-                     (missing_shards.empty()
-                          ? std::string()
-                          : "; missing shards: " + text::join(missing_shards, ", ")) +
-                     " (--allow-incomplete merges them, marked incomplete)");
-
-  // Trace rows grouped by run in their original order; none repeated, none of an unknown run.
+// Trace rows grouped by run in their original order; none repeated, none of an unknown run.
+std::map<std::string, std::vector<const Row*>> trace_rows_by_run(const std::vector<Shard>& shards) {
+  const Shard& first = shards.front();
   const size_t trace_id = first.trace.column("run_id");
   const size_t trace_step = first.trace.column("step");
   const size_t trace_channel = first.trace.column("channel");
-  std::map<std::string, std::vector<const std::vector<std::string>*>> by_run;
+  std::map<std::string, std::vector<const Row*>> by_run;
   for (const Shard& s : shards) {
     std::set<std::tuple<std::string, std::string, std::string>> rows_seen;
     const size_t id_column = s.summary.column("run_id");
@@ -288,19 +284,22 @@ size_t merge_shards(const std::vector<std::string>& dirs, const std::string& out
       by_run[row[trace_id]].push_back(&row);
     }
   }
+  return by_run;
+}
 
-  std::vector<const std::vector<std::string>*> summary_rows, trace_rows;
-  const size_t id_column = first.summary.column("run_id");
-  std::vector<std::string> run_ids;
-  for (const auto& [index, row] : ordered) {
-    summary_rows.push_back(row);
-    run_ids.push_back((*row)[id_column]);
-    for (const auto* t : by_run[(*row)[id_column]]) trace_rows.push_back(t);
-  }
+// What the merge writes: the tables' rows in run order and sweep.json.
+struct MergedSweep {
+  std::vector<const Row*> summary_rows, trace_rows;
+  Json sweep;
+};
 
-  // sweep.json: the unsplit run's, with every shard's runs, failures and problems in the sweep's
-  // order; `merged_from` names the shards and their commands.
-  Json merged = first.sweep;
+// sweep.json: the unsplit run's, with every shard's runs, failures and problems in the sweep's
+// order; `merged_from` names the shards and their commands. `missing` runs (and shards) make it
+// "incomplete".
+Json merged_sweep_json(const std::vector<Shard>& shards, const std::vector<std::string>& run_ids,
+                       long long missing, const std::vector<std::string>& missing_shards,
+                       const MergeOptions& options) {
+  Json merged = shards.front().sweep;
   if (!options.command.empty()) merged["command"] = options.command;
   merged["shard"] = "0/1";
   merged["status"] = missing == 0 ? "complete" : "incomplete";
@@ -317,21 +316,26 @@ size_t merge_shards(const std::vector<std::string>& dirs, const std::string& out
                     {"shard", text_at(s.sweep, "shard")},
                     {"command", text_at(s.sweep, "command")}});
   merged["merged_from"] = from;
+  return merged;
+}
 
-  // Write into a temporary sibling, then put it in place.
+// Writes into a temporary sibling, then puts it in place (a previous sweep there is moved aside,
+// replaced, then removed).
+void write_merged_folder(const std::vector<Shard>& shards, const MergedSweep& merged,
+                         const fs::path& out, const std::string& out_dir) {
+  const Shard& first = shards.front();
   const fs::path temp = out.string() + ".tmp." + std::to_string(::getpid());
   try {
     fs::remove_all(temp);
     fs::create_directories(temp);
-    write_rows((temp / "summary.csv").string(), first.summary.header, summary_rows);
-    write_rows((temp / "trace.csv").string(), first.trace.header, trace_rows);
+    write_rows((temp / "summary.csv").string(), first.summary.header, merged.summary_rows);
+    write_rows((temp / "trace.csv").string(), first.trace.header, merged.trace_rows);
     for (const Shard& s : shards)
       for (const char* folder : {"runs", "images", "coverage"}) copy_run_files(s, folder, temp);
     JsonWriter json;
-    write_json_value(json, merged);
+    write_json_value(json, merged.sweep);
     json.save((temp / "sweep.json").string());
     if (fs::exists(out)) {
-      // An empty folder, or a previous sweep: moved aside, replaced, then removed.
       const fs::path old = out.string() + ".old." + std::to_string(::getpid());
       fs::rename(out, old);
       fs::rename(temp, out);
@@ -350,6 +354,58 @@ size_t merge_shards(const std::vector<std::string>& dirs, const std::string& out
     fs::remove_all(temp, ignored);
     throw;
   }
+}
+
+}  // namespace
+
+size_t merge_sweeps(const std::vector<std::string>& dirs, const std::string& out_dir,
+                    const std::string& command) {
+  MergeOptions options;
+  options.command = command;
+  return merge_shards(dirs, out_dir, options);
+}
+
+size_t merge_shards(const std::vector<std::string>& dirs, const std::string& out_dir,
+                    const MergeOptions& options) {
+  if (dirs.empty()) throw UsageError("merge: give at least one shard folder");
+  if (out_dir.empty()) throw UsageError("merge: give an output folder (--out)");
+  const fs::path out = absolute_path(out_dir);
+  check_output_folder(dirs, out_dir, out);
+
+  // Read and check everything before writing anything.
+  std::vector<Shard> shards;
+  for (const std::string& dir : dirs) shards.push_back(read_shard(dir));
+  check_shards_agree(shards);
+  const Shard& first = shards.front();
+  const long long runs_total = std::stoll(required(first, "runs_total"));
+  std::map<int, std::string> shard_seen;  // shard index -> folder
+  const OrderedRows ordered = ordered_summary_rows(shards, runs_total, shard_seen);
+
+  // Every run of the sweep, or a visible refusal.
+  std::vector<std::string> missing_shards;
+  for (int i = 0; i < first.count; ++i)
+    if (!shard_seen.count(i))
+      missing_shards.push_back(std::to_string(i) + "/" + std::to_string(first.count));
+  const long long missing = runs_total - static_cast<long long>(ordered.size());
+  if (missing != 0 && !options.allow_incomplete)
+    throw InputError("merge: the shards hold " + std::to_string(ordered.size()) + " of the " +
+                     std::to_string(runs_total) + " runs of the sweep" +
+                     (missing_shards.empty()
+                          ? std::string()
+                          : "; missing shards: " + text::join(missing_shards, ", ")) +
+                     " (--allow-incomplete merges them, marked incomplete)");
+
+  std::map<std::string, std::vector<const Row*>> by_run = trace_rows_by_run(shards);
+  MergedSweep merged;
+  const size_t id_column = first.summary.column("run_id");
+  std::vector<std::string> run_ids;
+  for (const auto& [index, row] : ordered) {
+    merged.summary_rows.push_back(row);
+    run_ids.push_back((*row)[id_column]);
+    for (const auto* t : by_run[(*row)[id_column]]) merged.trace_rows.push_back(t);
+  }
+  merged.sweep = merged_sweep_json(shards, run_ids, missing, missing_shards, options);
+  write_merged_folder(shards, merged, out, out_dir);
   return ordered.size();
 }
 

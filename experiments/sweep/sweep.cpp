@@ -18,6 +18,7 @@
 #include "experiments/run/coverage.h"
 #include "experiments/run/images.h"
 #include "experiments/run/outputs.h"
+#include "experiments/run/run_request.h"
 #include "experiments/run/summary.h"
 #include "experiments/run/trace.h"
 #include "experiments/sweep/sweep_folder.h"
@@ -143,19 +144,6 @@ ProblemEntry problem_entry(size_t index, const PlannedProblem& planned, const Pr
     e.ff_parameters = problem->ff_parameters;
   }
   return e;
-}
-
-// Opens a run's run.json with what identifies it: the run, the build, the problem and the
-// solver's options (the last two when known; a run can fail before either exists).
-void begin_run_json(JsonWriter& json, const ExperimentSpec& spec, const PlannedRun& run,
-                    const Problem* problem, const std::map<std::string, std::string>* options) {
-  json.begin_object();
-  json.field("run_id", run.run_id);
-  json.field("run_index", run.index);
-  json.field("experiment", spec.path);
-  write_build_info(json);
-  if (problem) write_problem_info(json, *problem);
-  if (options) write_solver_info(json, run.solver, *options);
 }
 
 void write_problem_entry(JsonWriter& json, const ProblemEntry& e) {
@@ -294,7 +282,7 @@ struct CurrentProblem {
     code = ExitCode::kOk;
     spectral_radius = {std::nan(""), std::nan("")};
     try {
-      problem = prepare_problem(planned.spec);
+      problem = prepare_run_problem(planned.spec, ReferenceChoice{}, spec.budget);
       if (!spec.images.steps.empty()) images = std::make_unique<ImageMaker>(*problem, spec.images);
     } catch (const Error& e) {
       problem.reset();
@@ -333,52 +321,110 @@ bool keep_completed_run(const std::filesystem::path& out, const SweepPlan& plan,
   return true;
 }
 
-// One run: its trace and summary rows into the partial folder, its run.json, radiosities, images
-// and coverage into the sweep folder. A failure is recorded (report.failures, a failed summary
-// row, a run.json saying why) and the sweep goes on.
-void run_one(const ExperimentSpec& spec, const SweepPlan& plan, const PlannedRun& run,
-             const std::string& stem, const std::filesystem::path& out, CurrentProblem& current,
-             SweepReport& report) {
+// A planned run's solver parameters as key=value.
+std::vector<std::string> assignments_of(const PlannedRun& run) {
   std::vector<std::string> assignments;
   for (const auto& [k, v] : run.parameters) assignments.push_back(k + "=" + v);
+  return assignments;
+}
+
+// The request of one planned run, as far as it is known before its solver's parameters are
+// parsed: labels, identity and outputs (the trace is the caller's partial file).
+RunRequest planned_request(const ExperimentSpec& spec, const SweepPlan& plan, const PlannedRun& run,
+                           const std::string& stem, const std::filesystem::path& out) {
+  RunRequest request;
+  request.problem = plan.problems[run.problem].spec;
+  request.solver = run.solver;
+  request.budget = spec.budget;  // validated when the experiment file was read
+  request.labels = RunLabels{run.run_id, request.problem.scene, run.solver,
+                             text::join(assignments_of(run), ",")};
+  request.identity.run_index = run.index;
+  request.identity.experiment = spec.path;
+  request.outputs.radiosity = (out / "runs" / (stem + ".radiosity.csv")).string();
+  request.outputs.json = (out / "runs" / (stem + ".run.json")).string();
+  request.outputs.announce = false;  // the sweep says where its results are at the end
+  return request;
+}
+
+// Images and coverage at the experiment's steps, from the checkpoint hook.
+CheckpointHook image_and_coverage_hook(const ExperimentSpec& spec, const PlannedRun& run,
+                                       const std::string& stem, const std::filesystem::path& out,
+                                       const CurrentProblem& current) {
+  auto wanted = [](const std::vector<long long>& steps, long long step) {
+    return std::find(steps.begin(), steps.end(), step) != steps.end();
+  };
+  return [&spec, &run, &current, stem, out, wanted](long long step, const Solver& s) {
+    const Problem& problem = *current.problem;
+    if (current.images && wanted(spec.images.steps, step))
+      current.images->save(s, step, (out / "images" / stem).string(),
+                           run_provenance(run.run_id, problem.spec.scene, run.solver, step,
+                                          problem.system->rows_used()));
+    if (wanted(spec.coverage_steps, step)) {
+      char name[64];
+      std::snprintf(name, sizeof name, "_step%06lld.csv", step);
+      write_coverage_csv((out / "coverage" / (stem + name)).string(), s, problem, step);
+    }
+  };
+}
+
+// What the summary row of a run says besides its result.
+SummaryInputs summary_inputs(const PlannedRun& run, const RunRequest& request,
+                             const CurrentProblem& current) {
   SummaryInputs inputs;
   inputs.run_index = run.index;
-  inputs.labels = RunLabels{run.run_id, plan.problems[run.problem].spec.scene, run.solver,
-                            text::join(assignments, ",")};
+  inputs.labels = request.labels;
   inputs.gathering = is_gathering(run.solver);
   inputs.spectral_radius = inputs.spectral_radius_lower = std::nan("");
   if (current.problem) {
     inputs.elements = current.problem->mesh.size();
     inputs.channels = current.problem->system->channels();
   }
+  return inputs;
+}
+
+// The run.json of a failed run: what identifies it (its solver's options once they parsed) and
+// why it failed. A run.json that cannot be written is a warning: the summary row says it all.
+void write_failed_run_json(const RunRequest& request, const Problem* problem, bool parsed,
+                           ExitCode code, const std::string& message) {
+  try {
+    JsonWriter json;
+    begin_run_json(json, request, problem, parsed ? &request.solver_parameters.values() : nullptr);
+    json.key("run").begin_object();
+    json.field("budget", request.budget.describe());
+    json.field("stop_reason", failure_stop_reason(code));
+    json.field("error", message);
+    json.field("exit_code", int(code));
+    json.end_object();
+    json.end_object();
+    json.save(request.outputs.json);
+  } catch (const InputError& e) {
+    log::warning(request.labels.run_id + ": " + e.what());
+  }
+}
+
+// One run: its trace and summary rows into the partial folder, its run.json, radiosities, images
+// and coverage into the sweep folder. A failure is recorded (report.failures, a failed summary
+// row, a run.json saying why) and the sweep goes on.
+void run_one(const ExperimentSpec& spec, const SweepPlan& plan, const PlannedRun& run,
+             const std::string& stem, const std::filesystem::path& out, CurrentProblem& current,
+             SweepReport& report) {
+  RunRequest request = planned_request(spec, plan, run, stem, out);
+  SummaryInputs inputs = summary_inputs(run, request, current);
 
   // This run's rows wait in the partial folder (short names, by index) until the sweep ends.
   // The summary row is written last: a run whose summary rows are in place is complete.
   TraceWriter trace(partial_file(out, run.index, "trace").string());
+  request.outputs.trace_sink = &trace;
   const std::string summary_path = partial_file(out, run.index, "summary").string();
 
   // Everything from here may fail; a failure is recorded and the sweep goes on. Its run.json
   // is written when its name can be (a run id too long for a file name has none).
-  bool trace_closed = false;
-  auto record_failure = [&](ExitCode code, const std::string& message,
-                            const std::map<std::string, std::string>* options_given) {
+  bool parsed = false;  // the solver's parameters (run.json names them once they parse)
+  auto record_failure = [&](ExitCode code, const std::string& message) {
     log::info(run.run_id + ": failed: " + message);
     report.failures.push_back({run.index, run.run_id, code, message});
-    if (!trace_closed) trace.close();
-    try {
-      JsonWriter json;
-      begin_run_json(json, spec, run, current.problem.get(), options_given);
-      json.key("run").begin_object();
-      json.field("budget", spec.budget.describe());
-      json.field("stop_reason", failure_stop_reason(code));
-      json.field("error", message);
-      json.field("exit_code", int(code));
-      json.end_object();
-      json.end_object();
-      json.save((out / "runs" / (stem + ".run.json")).string());
-    } catch (const InputError& e) {
-      log::warning(run.run_id + ": " + e.what());
-    }
+    if (!trace.closed()) trace.close();
+    write_failed_run_json(request, current.problem.get(), parsed, code, message);
     CsvWriter summary(summary_path, summary_columns());
     write_failed_summary_row(summary, inputs, failure_stop_reason(code), message);
     summary.close();
@@ -387,61 +433,35 @@ void run_one(const ExperimentSpec& spec, const SweepPlan& plan, const PlannedRun
     record_failure(ExitCode::kInvalidInput,
                    "run id too long for a file name (" + std::to_string(stem.size()) +
                        " bytes; the file system allows " + std::to_string(kMaxFileName) +
-                       " with the longest suffix radlab adds)",
-                   nullptr);
+                       " with the longest suffix radlab adds)");
     return;
   }
   if (!current.problem) {
-    record_failure(current.code, current.error, nullptr);
+    record_failure(current.code, current.error);
     return;
   }
   const Problem& problem = *current.problem;
 
-  std::optional<ParamBag> bag;
-  std::unique_ptr<Solver> solver;
   RunResult result;
   try {
-    bag.emplace(ParamBag::from_assignments(assignments, "solver '" + run.solver + "'"));
-    solver = make_solver(run.solver, *bag);
-    inputs.labels.params = bag->canonical();
+    request.solver_parameters =
+        ParamBag::from_assignments(assignments_of(run), "solver '" + run.solver + "'");
+    parsed = true;
+    inputs.labels.params = request.labels.params = request.solver_parameters.canonical();
     if (inputs.gathering && problem.has_matrix()) {
       if (std::isnan(current.spectral_radius.upper))
         current.spectral_radius = worst_spectral_radius(problem);
       inputs.spectral_radius = current.spectral_radius.upper;
       inputs.spectral_radius_lower = current.spectral_radius.lower;
     }
-    const CheckpointSchedule schedule = run_schedule(spec, inputs.gathering, problem.mesh.size());
-    auto wanted = [](const std::vector<long long>& steps, long long step) {
-      return std::find(steps.begin(), steps.end(), step) != steps.end();
-    };
-    CheckpointHook hook = [&, stem](long long step, const Solver& s) {
-      if (current.images && wanted(spec.images.steps, step))
-        current.images->save(s, step, (out / "images" / stem).string(),
-                             run_provenance(run.run_id, problem.spec.scene, run.solver, step,
-                                            problem.system->rows_used()));
-      if (wanted(spec.coverage_steps, step)) {
-        char name[64];
-        std::snprintf(name, sizeof name, "_step%06lld.csv", step);
-        write_coverage_csv((out / "coverage" / (stem + name)).string(), s, problem, step);
-      }
-    };
-    result = run_solver(*solver, problem, spec.budget, schedule, inputs.labels, &trace, hook);
-    write_radiosity_csv((out / "runs" / (stem + ".radiosity.csv")).string(), problem.mesh,
-                        solver->solution());
-    trace_closed = true;  // a failure to close is a failure of the run, not closed again
-    trace.close();
-    JsonWriter json;
-    begin_run_json(json, spec, run, current.problem.get(), &bag->values());
-    write_run_result(json, spec.budget, result);
-    write_solver_statistics(json, *solver, current.problem.get());
-    json.end_object();
-    json.save((out / "runs" / (stem + ".run.json")).string());
+    request.schedule = run_schedule(spec, inputs.gathering, problem.mesh.size());
+    request.hook = image_and_coverage_hook(spec, run, stem, out, current);
+    result = execute_run(request, problem).result;
   } catch (const Error& e) {
-    record_failure(e.code(), e.what(), bag ? &bag->values() : nullptr);
+    record_failure(e.code(), e.what());
     return;
   } catch (const std::bad_alloc&) {
-    record_failure(ExitCode::kNumerical, run.run_id + ": out of memory",
-                   bag ? &bag->values() : nullptr);
+    record_failure(ExitCode::kNumerical, run.run_id + ": out of memory");
     return;
   }
   CsvWriter summary(summary_path, summary_columns());
