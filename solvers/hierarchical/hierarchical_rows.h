@@ -42,6 +42,9 @@ struct RowStats {
   double max_change = 0.0;      // largest |row_scale - 1|
   uint64_t evaluations = 0;     // (leaf, ancestor link) pairs evaluated by the 2 x 2 rule
   uint64_t nonfinite = 0;       // point values without a defined result (taken as 0)
+  // The reflected light's column sums after normalisation (the power a leaf's light delivers,
+  // per unit of it): their range and area-weighted mean |c - 1|.
+  double min_column = 0.0, max_column = 0.0, mean_column_deviation = 0.0;
 };
 
 // Sets h.row_scale for every leaf (1 for interior nodes and leaves that gather nothing).
