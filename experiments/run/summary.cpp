@@ -65,7 +65,8 @@ const std::vector<std::string>& summary_columns() {
       "seconds_to_rms_rel_reflected_1e-3",
       "pair_evals_to_rms_rel_reflected_1e-3",
       "tolerance_reached",
-      "bound_relative_reflected"};
+      "bound_relative_reflected",
+      "p_excluded_area"};
   // clang-format on
   return columns;
 }
@@ -193,6 +194,7 @@ void write_summary_row(CsvWriter& csv, const SummaryInputs& in, const RunResult&
   // true / false with a tolerance in the budget; empty without one.
   csv.add(std::string(r.tolerance_asked ? (r.tolerance_reached ? "true" : "false") : ""));
   csv.add(r.final_bound_relative_reflected);  // ||B-B*||_inf / max(B* - E), as in run.json
+  csv.add(r.final_errors.p_excluded_area);    // area fraction left out of p-error
   csv.end_row();
 }
 
