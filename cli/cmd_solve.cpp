@@ -1,5 +1,6 @@
 // `radlab solve SCENE --solver NAME`: one run of one solver, measured against the certified
 // reference: trace CSV, final radiosities, run.json and (optionally) an EXR + PNG image.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -156,6 +157,16 @@ void run(const SolveOptions& o, int argc, char** argv) {
   }
   for (const auto& [key, value] : solver->statistics())
     std::printf("statistic    %-28s %.10g\n", key.c_str(), value);
+  // No physical radiosity is negative; over-relaxation can leave some (issue 35.5).
+  size_t negative = 0;
+  double lowest = 0.0;
+  for (double b : solver->solution().raw())
+    if (b < 0.0) ++negative, lowest = std::min(lowest, b);
+  if (negative > 0)
+    std::printf(
+        "verdict      %zu radiosity values are negative (lowest %.6g): not a physical "
+        "solution yet\n",
+        negative, lowest);
   if (result.tolerance_asked) {
     if (!result.tolerance_reached) {
       std::printf("verdict      %s\n", result.tolerance_message.c_str());
