@@ -320,6 +320,9 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
     if (streamed)
       problem->reference->system +=
           "; rows computed on the fly, the cached reference certified against them";
+    if (problem->computed.size() > 0)  // float storage: the solvers' floor (issue 35.6)
+      bound_storage_rounding(*problem->system, problem->computed, problem->matrix,
+                             *problem->reference);
     log::info("reference: " + problem->reference->summary());
   }
   return problem;
