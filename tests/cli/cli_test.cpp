@@ -177,6 +177,16 @@ TEST(Cli, ToleranceBelowTheCertifiableFloorIsRefusedNamingIt) {
   EXPECT_OUTPUT_HAS(r, "of max(B* - E))");
 }
 
+TEST(Cli, NegativeRadiositiesAreSaidInTheVerdict) {
+  // Over-relaxed Gauss-Seidel leaves 44 radiosities below zero on the Cornell box after 3,000
+  // rows (lowest -0.150); it used to end exit 0 with no word (issue 35.5).
+  Result r =
+      radlab("solve builtin:cornell --subdiv 4 --solver gauss-seidel --set omega=1.9 --rows 3000");
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_OUTPUT_HAS(r, "radiosity values are negative (lowest");
+  EXPECT_OUTPUT_HAS(r, "negative_radiosities");
+}
+
 TEST(Cli, ToleranceNotReachedExitsFiveAfterWritingEverything) {
   // Gauss-Seidel on the rho = 0.99 cube stops at the 1,000-sweep cap of a tolerance alone with a
   // certified bound of 3.6e-9: exit 5, said plainly, and run.json written.
