@@ -1,5 +1,6 @@
 // `radlab solve SCENE --solver NAME`: one run of one solver, measured against the certified
 // reference: trace CSV, final radiosities, run.json and (optionally) an EXR + PNG image.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -102,6 +103,19 @@ void print_reference(const RunOutcome& run) {
   }
 }
 
+// No physical radiosity is negative; over-relaxation can leave some (issue 35.5).
+void print_negative_radiosities(const Radiosity& solution) {
+  size_t negative = 0;
+  double lowest = 0.0;
+  for (double b : solution.raw())
+    if (b < 0.0) ++negative, lowest = std::min(lowest, b);
+  if (negative > 0)
+    std::printf(
+        "verdict      %zu radiosity values are negative (lowest %.6g): not a physical "
+        "solution yet\n",
+        negative, lowest);
+}
+
 void print_verdict(const RunResult& result, double tol) {
   if (!result.tolerance_reached) {
     std::printf("verdict      %s\n", result.tolerance_message.c_str());
@@ -128,6 +142,7 @@ void run(const SolveOptions& o, int argc, char** argv) {
   if (run.problem->reference) print_reference(run);
   for (const auto& [key, value] : run.solver->statistics())
     std::printf("statistic    %-28s %.10g\n", key.c_str(), value);
+  print_negative_radiosities(run.solver->solution());
   if (result.tolerance_asked) print_verdict(result, o.tol);
   // Everything is written; the exit code tells a script the tolerance was missed.
   if (result.tolerance_asked && !result.tolerance_reached)

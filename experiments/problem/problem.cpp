@@ -373,6 +373,9 @@ void reference_stage(Preparation& p) {
     progress.finish();
   }
   problem.reference->system = certified_system_text(p);
+  if (problem.computed.size() > 0)  // float storage: the solvers' floor (issue 35.6)
+    bound_storage_rounding(System(problem.scene(), problem.mesh, problem.matrix), problem.computed,
+                           problem.matrix, *problem.reference);
   log::info("reference: " + problem.reference->summary());
 }
 

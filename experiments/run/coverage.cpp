@@ -16,9 +16,10 @@ bool write_coverage_csv(const std::string& path, const Solver& solver, const Pro
                                       "dff",  "shot",    "p_mean"};
   if (channels == 3) columns.insert(columns.end(), {"p_r", "p_g", "p_b"});
   std::vector<std::vector<double>> p(channels == 3 ? 4 : 1, std::vector<double>(n));
-  relative_errors(B, problem.reference->B, kMeanOfChannels, p[0]);
+  relative_errors(B, problem.reference->B, problem.mesh.area, kMeanOfChannels, p[0]);
   if (channels == 3)
-    for (int c = 0; c < 3; ++c) relative_errors(B, problem.reference->B, c, p[size_t(c) + 1]);
+    for (int c = 0; c < 3; ++c)
+      relative_errors(B, problem.reference->B, problem.mesh.area, c, p[size_t(c) + 1]);
   CsvWriter csv(path, columns);
   for (size_t i = 0; i < n; ++i) {
     csv.add(step).add(coverage->session).add(i).add(problem.mesh.area[i]);

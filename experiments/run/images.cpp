@@ -61,7 +61,7 @@ void ImageMaker::save(const Solver& solver, long long step, const std::string& s
   // measures on the mean of the colour bands); flat shading, so each element shows its own error.
   const size_t n = problem_.mesh.size();
   std::vector<double> relative(n);
-  relative_errors(display, problem_.reference->B, kMeanOfChannels, relative);
+  relative_errors(display, problem_.reference->B, problem_.mesh.area, kMeanOfChannels, relative);
   std::vector<glm::dvec3> signed_error(n), cohen(n), perror(n);
   for (size_t i = 0; i < n; ++i) {
     signed_error[i] = glm::dvec3(relative[i]);

@@ -200,13 +200,18 @@ class Evaluator {
 // that window it halves its error. A slower solver (damped Jacobi at omega = 1/2 gains
 // 1 - (1-r)/2) still gains ~30%, far above 1%. Best-of-half, not the bound at one checkpoint:
 // mid-sweep a gathering solver's iterate mixes two sweeps and its inf-norm residual oscillates.
-void check_stagnation(const Problem& problem, const RunResult& result, double bound,
-                      const std::string& tolerance, const std::string& run_id) {
+// Returns a stop reason instead of throwing when the run has converged to the certifiable floor
+// (issue 35.3): its best bound is within kFloorBand of the reference's own certified bound,
+// which a double iterate cannot beat (its residual holds the same rounding of B* to double and
+// the same rounding bound of the residual sum), so it is not stagnant.
+constexpr double kFloorBand = 10.0;
+std::string check_stagnation(const Problem& problem, const RunResult& result, double bound,
+                             const std::string& tolerance, const std::string& run_id) {
   const double n = double(problem.system->size());
   const double rows_now = double(problem.system->rows_used());
   const double r = problem.reference ? problem.reference->spectral_radius_upper : 0.0;
   const double sweeps = r > 0.0 && r < 1.0 ? std::max(20.0, std::log(2.0) / -std::log(r)) : 20.0;
-  if (rows_now < 2.0 * sweeps * n) return;
+  if (rows_now < 2.0 * sweeps * n) return {};
   double before = std::numeric_limits<double>::infinity(), after = bound;
   for (const CheckpointRecord& c : result.history) {
     if (!std::isfinite(c.bound_relative)) continue;
@@ -215,7 +220,12 @@ void check_stagnation(const Problem& problem, const RunResult& result, double bo
     else
       after = std::min(after, c.bound_relative);
   }
-  if (!std::isfinite(before) || after < 0.99 * before) return;
+  if (!std::isfinite(before) || after < 0.99 * before) return {};
+  const double floor = problem.reference ? problem.reference->bound_relative : 0.0;
+  if (after <= kFloorBand * floor)
+    return "converged: the tolerance is below the certifiable floor (the reference's own bound " +
+           text::format_double(floor) + " of max B*; a solution in double is certified within " +
+           text::format_double(kFloorBand) + "x of it at best)";
   std::string why =
       "the best bound of the last " + text::format_double(0.5 * rows_now) + " rows (" +
       text::format_double(after) + ") is not 1% below the best before (" +
@@ -268,6 +278,19 @@ Budget kept_budget(const Budget& asked, const Problem& problem, double scale) {
     if (!std::isfinite(scale))
       throw UsageError("--tol-of reflected: the reference reflects no light (max(B* - E) = 0)");
     budget.tol = *budget.tol / scale;
+  }
+  // No bound can go below the reference's own (issue 35.3): refuse such a tolerance up front.
+  if (budget.tol && problem.reference && problem.reference->kind == "certified" &&
+      *budget.tol < problem.reference->bound_relative) {
+    const double floor = problem.reference->bound_relative;
+    throw UsageError("--tol " + text::format_double(*asked.tol) +
+                     (budget.tol_of_reflected ? " of max(B* - E)" : " of max B*") +
+                     " is below the certifiable floor: the reference's own certified bound is " +
+                     text::format_double(floor) + " of max B*" +
+                     (budget.tol_of_reflected
+                          ? " (" + text::format_double(floor * scale) + " of max(B* - E))"
+                          : std::string()) +
+                     ", and no solution in double can be certified closer");
   }
   return budget;
 }
@@ -349,6 +372,11 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
     }
     if (const char* reason = budget.exhausted(step, system.rows_used(), seconds)) {
       result.stop_reason = reason;
+      // Said, not left to be read as convergence (issue 35.5: hierarchical on the rho 0.999
+      // cube stopped at rms_rel 0.75 after the 3n default passes it cannot converge in).
+      if (budget_in.empty())
+        result.stop_reason += " (the default of 3n = " + std::to_string(*budget.steps) +
+                              " steps, no budget given; the solver had not finished)";
       break;
     }
     auto start = Clock::now();
@@ -362,7 +390,14 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
     if (step == next_checkpoint || at_end) {
       bound = checkpoint();
       next_checkpoint = schedule.next_after(step);
-      if (budget.tol) check_stagnation(problem, result, bound, tolerance, labels.run_id);
+      if (budget.tol) {
+        const std::string floor =
+            check_stagnation(problem, result, bound, tolerance, labels.run_id);
+        if (!floor.empty()) {
+          result.stop_reason = floor;
+          break;
+        }
+      }
     }
     if (info.finished) {
       result.stop_reason = "solver finished";

@@ -174,6 +174,8 @@ ColumnTable<SummaryRecord> make_summary_table() {
       number([](const Record&, const RunResult& x) { return x.final_bound_relative_reflected; }));
   add("solver_statistics", "the solver's own counters at the end (`Solver::statistics()`, as run.json's `solver_statistics`) as `name=value;...`; those that measure the machine (time, peak RSS) are in run.json only",
       of_result([](CsvWriter& c, const Record&, const RunResult& x) { c.add(statistics_field(x.statistics)); }));
+  add("p_excluded_area", "the area fraction of the elements left out of p-error (trace.csv's `p_excluded`) at the end",
+      number([](const Record&, const RunResult& x) { return x.final_errors.p_excluded_area; }));
   // clang-format on
   return t;
 }

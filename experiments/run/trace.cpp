@@ -45,7 +45,7 @@ ColumnTable<TraceCheckpoint> make_trace_table() {
     {"p_over", "area fraction with p > +1%", measured([](const Row& r) { return r.errors.p_over; })},
     {"p_under", "area fraction with p < −1%",
      measured([](const Row& r) { return r.errors.p_under; })},
-    {"p_excluded", "elements left out of p-error (reference ≤ 1e-9 of its max)",
+    {"p_excluded", "elements left out of p-error: reference ≤ 1e-9 of its area-weighted mean, i.e. dark (until issue 35.4: of its max, which beside a 0.3 mm lamp left out the whole room); summary.csv's `p_excluded_area` gives their area fraction",
      [](CsvWriter& c, const Row& r) { c.add(static_cast<unsigned long long>(r.errors.p_excluded)); }},
     {"rms_display", "`rms` of `display()` (e.g. with Cohen's ambient term)",
      measured([](const Row& r) { return r.display.rms; })},

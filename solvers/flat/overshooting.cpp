@@ -17,7 +17,11 @@
 //   On a two-level System (solvers/two_level/patches.h) the shooters are patches: dB_i, rho_i and
 //   A_i are the patch's area-weighted means and area, and regather reads the patch row P_i.
 //   clamp=true counts only positive dB_cj in either estimate (so o_i >= 0): the overshoot never
-//   takes back energy that was over-shot elsewhere.
+//   takes back energy that was over-shot elsewhere. That is not steadier: the negative unshot
+//   radiosity the overshoots leave is never counted against the next estimate, so with the
+//   ambient variant's R = 1/(1 - rho_avg) (100 at rho 0.99) each round over-shoots more than the
+//   last; on the closed cube at rho 0.99 it diverges within 40 steps (the runner stops it, exit 4),
+//   while clamp=false converges (issue 35.5).
 //   Selection: the largest |A_i (dB_i + o_i)| summed over channels, the power the shot would
 //   carry: by |A_i dB_i| an element that has just over-shot is picked again to shoot dB + o ~ 0
 //   and the solver stalls (seen on the cube with ambient: the error stayed at 0.97; on the
@@ -49,7 +53,8 @@ struct OvershootingOptions {
   std::string variant = "regather";  // how o_i is estimated: "ambient" (no extra work per
                                      // entry, a crude global guess) or "regather" (exact first
                                      // bounce of the current unshot energy, per element)
-  bool clamp = false;  // count only positive unshot radiosity in o_i: steadier, less aggressive
+  bool clamp = false;          // count only positive unshot radiosity in o_i (never take back an
+                               // overshoot): diverges with ambient at rho >= 0.99, see above
   bool float_storage = false;  // storage=float: x and dB kept in float (Wu & Wang's baseline)
 
   static OvershootingOptions from(ParamBag& bag) {
@@ -169,7 +174,9 @@ SolverInfo overshooting_solver_info() {
           "one form-factor row",
           {{"variant", "",
             "overshoot estimate: ambient (rho_i R avg unshot) or regather (rho_i sum F_ij dB_j)"},
-           {"clamp", "", "count only positive unshot radiosity in the estimate"},
+           {"clamp", "",
+            "count only positive unshot radiosity in the estimate (never takes an overshoot back: "
+            "with variant=ambient it diverges at rho >= 0.99)"},
            {"storage", "", "double or float: keep x and dB in float (Wu & Wang's baseline)"}},
           [](ParamBag& bag) -> std::unique_ptr<Solver> {
             return std::make_unique<OvershootingSolver>(OvershootingOptions::from(bag));

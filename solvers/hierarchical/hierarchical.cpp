@@ -241,6 +241,9 @@ class HierarchicalSolver final : public Solver {
         add(pre + "row_sum_max", p.rows.max_row);
         add(pre + "row_evaluations", double(p.rows.evaluations));
         add(pre + "row_nonfinite_values", double(p.rows.nonfinite));
+        add(pre + "column_sum_min", p.rows.min_column);
+        add(pre + "column_sum_max", p.rows.max_column);
+        add(pre + "column_sum_mean_deviation", p.rows.mean_column_deviation);
       }
     }
     return s;

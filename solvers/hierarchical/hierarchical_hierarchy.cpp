@@ -26,7 +26,7 @@ Rgb Hierarchy::radiosity(const NodeKey& k) const {
 
 size_t Hierarchy::memory_bytes() const {
   const size_t per_node = sizeof(NodeKey) + sizeof(int32_t) + sizeof(std::array<int32_t, 4>) +
-                          sizeof(double) + 4 * sizeof(double) * size_t(channels) +
+                          sizeof(double) + 5 * sizeof(double) * size_t(channels) +
                           sizeof(uint64_t) +
                           // the key index: a node, its key and a bucket pointer
                           sizeof(NodeKey) + sizeof(uint32_t) + 2 * sizeof(void*);
@@ -110,6 +110,7 @@ Hierarchy build_hierarchy(const std::vector<Chart>& charts, const std::vector<Li
   h.factor.resize(2 * links.size());
   h.free_rays.resize(2 * links.size());
   h.row_scale.assign(n, 1.0);
+  h.row_offset.assign(C * n, 0.0);
   std::vector<uint64_t> fill(h.first.begin(), h.first.end() - 1);
   for (size_t l = 0; l < links.size(); ++l) {
     const auto [p, q] = ends[l];
@@ -150,7 +151,7 @@ double push_pull(const Hierarchy& h, size_t i, const double* down, std::vector<d
   if (h.is_leaf(i)) {
     for (int c = 0; c < h.channels; ++c) {
       const size_t at = size_t(c) * n + i;
-      out[at] = h.emission[at] + h.reflectance[at] * h.row_scale[i] * total[c];
+      out[at] = h.emission[at] + h.reflectance[at] * (h.row_scale[i] * total[c] + h.row_offset[at]);
       change = std::max(change, std::abs(out[at] - h.B[at]));
     }
     return change;

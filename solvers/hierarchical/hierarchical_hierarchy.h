@@ -39,6 +39,10 @@ struct Hierarchy {
   // Per node: the factor every leaf applies to what it and its ancestors gathered (1 until
   // normalise_rows sets it; hierarchical_rows.h).
   std::vector<double> row_scale;
+  // Per leaf and channel (channel-major, 0 elsewhere): what the leaf adds to row_scale times its
+  // path's gathered light so that the emitted part of it is received by the leaf's own rule
+  // rather than scaled with the reflected part (hierarchical_rows.h).
+  std::vector<double> row_offset;
   size_t leaves = 0;
 
   size_t size() const { return key.size(); }

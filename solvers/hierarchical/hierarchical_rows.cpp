@@ -17,7 +17,41 @@ namespace {
 struct LeafRow {
   double link_sum = 0.0, row = 0.0;
   uint64_t evaluations = 0, nonfinite = 0;
+  // The emitted light: as the links gather it (P), and as the leaf receives it (D, before the
+  // non-point-like part is scaled by alpha); the point-like links' two values summed.
+  double gathered_emission[3] = {0.0, 0.0, 0.0};
+  double point_emission[3] = {0.0, 0.0, 0.0}, other_emission[3] = {0.0, 0.0, 0.0};
+  double point_source_side = 0.0, point_leaf_side = 0.0;
 };
+
+// Sum over a node's 2 x 2 rule (its children's centres, area weighted) of the point-to-polygon
+// factor from each point to `target`; the area-weighted sum, not the mean. Non-finite values
+// (a point in the target's plane) count as 0.
+double rule_to_polygon(const Chart& from_chart, const NodeGeometry& from, const Vec3& to_normal,
+                       const NodeGeometry& target, std::vector<Vec3>& scratch,
+                       uint64_t& nonfinite) {
+  double px[4], py[4], pz[4], a[4];
+  for (int d = 0; d < 4; ++d) {
+    const NodeGeometry c = from.child(from_chart, d);
+    px[d] = c.centre.x;
+    py[d] = c.centre.y;
+    pz[d] = c.centre.z;
+    a[d] = c.area;
+  }
+  const PointBatch points{px, py, pz, 4};
+  double value[4];
+  point_to_polygon_form_factors(points, from_chart.normal,
+                                std::span<const Vec3>(target.x, size_t(target.corners)), to_normal,
+                                value, scratch);
+  double sum = 0.0;
+  for (int d = 0; d < 4; ++d) {
+    if (std::isfinite(value[d]))
+      sum += a[d] * value[d];
+    else
+      ++nonfinite;
+  }
+  return sum;
+}
 
 // S_L and T_L of leaf i (geometry of every node in `geom`).
 LeafRow leaf_row(const Hierarchy& h, const std::vector<Chart>& charts,
@@ -35,34 +69,87 @@ LeafRow leaf_row(const Hierarchy& h, const std::vector<Chart>& charts,
   }
   const PointBatch points{px, py, pz, 4};
   double value[4];
+  const size_t n = h.size();
   for (int64_t a = int64_t(i); a >= 0; a = h.parent[size_t(a)]) {
     for (uint64_t k = h.first[size_t(a)]; k < h.first[size_t(a) + 1]; ++k) {
       r.link_sum += h.factor[k];
-      if (size_t(a) == i) {
-        // The leaf's own links: their factor is this rule already (hierarchical_refine.cpp).
-        r.row += h.factor[k];
-        continue;
-      }
       const size_t s = h.source[k];
-      const NodeGeometry& g = geom[s];
-      point_to_polygon_form_factors(points, chart.normal,
-                                    std::span<const Vec3>(g.x, size_t(g.corners)),
-                                    charts[h.key[s].chart].normal, value, scratch);
       const double v = double(h.free_rays[k]) / kVisibilityRays;
-      double sum = 0.0;
-      for (int d = 0; d < 4; ++d) {
-        // A point on the source's own plane inside it (coincident back-to-back input) has no
-        // defined value; it sees none of the source.
-        if (std::isfinite(value[d]))
-          sum += w[d] * value[d];
-        else
-          ++r.nonfinite;
+      double leaf_side = h.factor[k];  // the leaf's own links: their factor is this rule already
+      if (size_t(a) != i) {
+        const NodeGeometry& g = geom[s];
+        point_to_polygon_form_factors(points, chart.normal,
+                                      std::span<const Vec3>(g.x, size_t(g.corners)),
+                                      charts[h.key[s].chart].normal, value, scratch);
+        double sum = 0.0;
+        for (int d = 0; d < 4; ++d) {
+          // A point on the source's own plane inside it (coincident back-to-back input) has no
+          // defined value; it sees none of the source.
+          if (std::isfinite(value[d]))
+            sum += w[d] * value[d];
+          else
+            ++r.nonfinite;
+        }
+        leaf_side = v * sum;
+        ++r.evaluations;
       }
-      r.row += v * sum;
-      ++r.evaluations;
+      r.row += leaf_side;
+      bool emits = false;
+      for (int c = 0; c < h.channels; ++c) {
+        const double e = h.emission[size_t(c) * n + s];
+        r.gathered_emission[c] += h.factor[k] * e;
+        emits = emits || e > 0.0;
+      }
+      if (!emits) continue;
+      if (geom[s].area < geom[i].area) {
+        // A point-like source (smaller than the leaf): its light is received by the source-side
+        // rule, exact over the leaf's polygon, so the leaves it reaches receive its power
+        // whatever their size (the lamp's points see a partition of the room: sum 1).
+        const double source_side = v *
+                                   rule_to_polygon(charts[h.key[s].chart], geom[s], chart.normal,
+                                                   geom[i], scratch, r.nonfinite) /
+                                   geom[i].area;
+        ++r.evaluations;
+        r.point_source_side += source_side;
+        r.point_leaf_side += leaf_side;
+        for (int c = 0; c < h.channels; ++c)
+          r.point_emission[c] += source_side * h.emission[size_t(c) * n + s];
+      } else {
+        for (int c = 0; c < h.channels; ++c)
+          r.other_emission[c] += leaf_side * h.emission[size_t(c) * n + s];
+      }
     }
   }
   return r;
+}
+
+// The reflected light's column sums after normalisation: c_j, the fraction of leaf j's light
+// that the normalised gathers deliver, per unit of j's power (Σ_L A_L row_scale_L K_Lj / A_j).
+// Links from a source node spread its light over its leaves in proportion to area, so
+// c_j = Σ over j's path s of acc_s / A_s, acc_s = Σ over links from s of f × W_receiver,
+// W_a = Σ over leaves L under a of A_L row_scale_L.
+void column_sums(const Hierarchy& h, RowStats& stats) {
+  const size_t n = h.size();
+  std::vector<double> weight(n, 0.0), acc(n, 0.0), column(n, 0.0);
+  for (size_t i = n; i-- > 0;) {
+    if (h.is_leaf(i)) weight[i] = h.area[i] * h.row_scale[i];
+    if (h.parent[i] >= 0) weight[size_t(h.parent[i])] += weight[i];
+  }
+  for (size_t a = 0; a < n; ++a)
+    for (uint64_t k = h.first[a]; k < h.first[a + 1]; ++k)
+      acc[h.source[k]] += h.factor[k] * weight[a];
+  double lo = 1e300, hi = -1e300, deviation = 0.0, area = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    column[i] = acc[i] / h.area[i] + (h.parent[i] >= 0 ? column[size_t(h.parent[i])] : 0.0);
+    if (!h.is_leaf(i) || !(h.area[i] > 0.0)) continue;
+    lo = std::min(lo, column[i]);
+    hi = std::max(hi, column[i]);
+    deviation += h.area[i] * std::abs(column[i] - 1.0);
+    area += h.area[i];
+  }
+  stats.min_column = lo <= hi ? lo : 0.0;
+  stats.max_column = lo <= hi ? hi : 0.0;
+  stats.mean_column_deviation = area > 0.0 ? deviation / area : 0.0;
 }
 
 }  // namespace
@@ -70,6 +157,7 @@ LeafRow leaf_row(const Hierarchy& h, const std::vector<Chart>& charts,
 RowStats normalise_rows(Hierarchy& h, const std::vector<Chart>& charts) {
   const size_t n = h.size(), nc = h.chart_first.size() - 1;
   h.row_scale.assign(n, 1.0);
+  h.row_offset.assign(size_t(h.channels) * n, 0.0);
   // Node geometry, parents before children (depth-first order within each chart).
   std::vector<NodeGeometry> geom(n);
   tbb::parallel_for(
@@ -96,6 +184,13 @@ RowStats normalise_rows(Hierarchy& h, const std::vector<Chart>& charts) {
     if (!(r.link_sum > 0.0 && std::isfinite(r.link_sum))) continue;
     const double row = std::min(r.row, 1.0);
     h.row_scale[i] = row / r.link_sum;
+    // The emitted light's row: the point-like links' source-side values, the rest's leaf-side
+    // values scaled so the whole row is `row` again (a furnace's uniform E still gives E row).
+    const double rest = r.row - r.point_leaf_side;
+    const double alpha = rest > 0.0 ? std::max(0.0, row - r.point_source_side) / rest : 1.0;
+    for (int c = 0; c < h.channels; ++c)
+      h.row_offset[size_t(c) * n + i] = r.point_emission[c] + alpha * r.other_emission[c] -
+                                        h.row_scale[i] * r.gathered_emission[c];
     stats.max_link_sum = std::max(stats.max_link_sum, r.link_sum);
     stats.min_link_sum = std::min(stats.min_link_sum, r.link_sum);
     stats.max_row = std::max(stats.max_row, row);
@@ -103,6 +198,7 @@ RowStats normalise_rows(Hierarchy& h, const std::vector<Chart>& charts) {
     stats.max_change = std::max(stats.max_change, std::abs(h.row_scale[i] - 1.0));
   }
   if (stats.min_link_sum > stats.max_link_sum) stats.min_link_sum = 0.0;
+  column_sums(h, stats);
   return stats;
 }
 

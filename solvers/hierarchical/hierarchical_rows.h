@@ -21,8 +21,23 @@
 // at the leaf itself use the same rule for their factor, so they contribute equally to S_L and
 // T_L: the correction comes only from the ancestors' links.
 //
+// The emitted light (issue 35.1): row_scale corrects the reflected light's row; applied to the
+// emitters' light it broke their power balance (a 1 mm lamp in a closed room delivered 1.4% more
+// than it sent: the scale of each leaf comes from its wall-to-wall links). So the emitted part is
+// taken out of the scaled gather and received by the leaf's own rule instead, as a per-leaf offset
+// (Hierarchy::row_offset; B = E + rho (row_scale * gathered + offset)): a link from an emitter
+// smaller than the leaf by the source-side rule (V times the sum over the source's four child
+// centres of their area times the point-to-polygon factor to the leaf, over A_L: exact over the
+// leaf, so the leaves a point-like lamp reaches receive exactly its power, its points seeing a
+// partition of the room), the other emitting links by the leaf's 2 x 2 value, scaled so the
+// emitted row is min(T_L, 1) as before (a furnace's uniform E gives E / (1 - rho) exactly).
+// The reflected light's transfer is still not conservative: the rows sum to min(T_L, 1) but the
+// columns c_j (the power leaf j's light delivers, per unit) do not; RowStats reports their range
+// and mean deviation (docs/solvers.md, "Emitted light").
+//
 // Cost: one 2 x 2 evaluation (4 point-to-polygon values, batched) per leaf and link on its
-// path above it; no rays (V is the link's). Left out: the leaf's own visibility (a link's V is
+// path above it, and one more per (leaf, emitting link) whose source is smaller than the leaf; no
+// rays (V is the link's). Left out: the leaf's own visibility (a link's V is
 // its nodes' 16-ray fraction) and any correction of interior nodes (only leaves hold B).
 #pragma once
 
@@ -42,6 +57,9 @@ struct RowStats {
   double max_change = 0.0;      // largest |row_scale - 1|
   uint64_t evaluations = 0;     // (leaf, ancestor link) pairs evaluated by the 2 x 2 rule
   uint64_t nonfinite = 0;       // point values without a defined result (taken as 0)
+  // The reflected light's column sums after normalisation (the power a leaf's light delivers,
+  // per unit of it): their range and area-weighted mean |c - 1|.
+  double min_column = 0.0, max_column = 0.0, mean_column_deviation = 0.0;
 };
 
 // Sets h.row_scale for every leaf (1 for interior nodes and leaves that gather nothing).

@@ -512,6 +512,52 @@ void recertify_reference(const System& system, const std::vector<double>& residu
   ref.bound_relative = max_B_all > 0 ? ref.bound_inf / max_B_all : 0.0;
 }
 
+void bound_storage_rounding(const System& system, const FormFactorMatrix& certified,
+                            const FormFactorMatrix& stored, Reference& ref) {
+  const size_t n = system.size();
+  const int channels = system.channels();
+  struct Row {
+    long double product = 0.0L, norm = 0.0L;  // max over channels of |dJ B_ref|_i, (|dJ| 1)_i
+  };
+  std::vector<Row> rows(n);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i < r.end(); ++i)
+      certified.visit_row(i, [&](const auto* f) {
+        stored.visit_row(i, [&](const auto* g) {
+          long double absolute = 0.0L, product[3] = {0.0L, 0.0L, 0.0L};
+          for (size_t j = 0; j < n; ++j) {
+            const long double d = static_cast<long double>(g[j]) - static_cast<long double>(f[j]);
+            if (d == 0.0L) continue;
+            absolute += std::fabs(d);
+            for (int c = 0; c < channels; ++c)
+              product[c] += d * static_cast<long double>(ref.B.at(c, j));
+          }
+          for (int c = 0; c < channels; ++c) {
+            const long double rho = system.reflectance().at(c, i);
+            rows[i].product = std::max(rows[i].product, rho * std::fabs(product[c]));
+            rows[i].norm = std::max(rows[i].norm, rho * absolute);
+          }
+        });
+      });
+  });
+  long double product = 0.0L, norm = 0.0L;
+  for (const Row& row : rows) {
+    product = std::max(product, row.product);
+    norm = std::max(norm, row.norm);
+  }
+  const long double N = ref.inverse_norm_bound;
+  // The long-double sums of n terms are within n * 2^-64 of exact, relative: 1e-12 covers it.
+  const long double numerator =
+      N * (product + norm * static_cast<long double>(ref.bound_inf)) * (1.0L + 1e-12L);
+  const long double shrink = 1.0L - N * norm * (1.0L + 1e-12L);
+  ref.float_storage_bound =
+      shrink > 0.0L ? double(numerator / shrink) : std::numeric_limits<double>::infinity();
+  double top = 0.0;
+  for (double b : ref.B.raw()) top = std::max(top, b);
+  ref.float_storage_bound_relative =
+      top > 0 ? ref.float_storage_bound / top : ref.float_storage_bound;
+}
+
 std::string Reference::summary() const {
   char buffer[300];
   std::snprintf(buffer, sizeof buffer,
@@ -519,7 +565,16 @@ std::string Reference::summary() const {
                 "||(I-J)^-1||_inf <= %.6g, q = %.9g; %s, %d refinements, %.2f s",
                 bound_inf, bound_relative, residual_inf, inverse_norm_bound, q, method.c_str(),
                 refinements, seconds);
-  return system.empty() ? std::string(buffer) : std::string(buffer) + "; system: " + system;
+  std::string text =
+      system.empty() ? std::string(buffer) : std::string(buffer) + "; system: " + system;
+  if (!std::isnan(float_storage_bound)) {
+    std::snprintf(buffer, sizeof buffer,
+                  "; the float system the solvers read has its own solution within %.3g (%.3g of "
+                  "max B) of B*: their floor",
+                  float_storage_bound, float_storage_bound_relative);
+    text += buffer;
+  }
+  return text;
 }
 
 }  // namespace radlab

@@ -23,6 +23,7 @@
 // NumericalError (exit 4); so is any solve that cannot be certified.
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -59,6 +60,12 @@ struct Reference {
   // Which system the certificate is of, in words (printed with it; set by prepare_problem):
   // e.g. the method's F in double precision, symmetrised or not. Empty: the matrix given.
   std::string system;
+  // With float storage (issue 35.6): a certified bound on ||B_f - B*||_inf, B_f the solution of
+  // the system the solvers read (F rounded to float), absolute and relative to max B; NaN when
+  // the solvers read the certified matrix itself. No solver reading float rows can be certified
+  // closer to B* than about this: their floor, printed before they hit it.
+  double float_storage_bound = std::numeric_limits<double>::quiet_NaN();
+  double float_storage_bound_relative = std::numeric_limits<double>::quiet_NaN();
   int refinements = 0;
   long long gmres_iterations = 0;  // matrix-vector products of all GMRES solves (0 with LU)
   double seconds = 0.0;
@@ -68,6 +75,17 @@ struct Reference {
 
 Reference compute_reference(const System& system, const FormFactorMatrix& matrix,
                             const ReferenceOptions& options = {});
+
+// Sets ref.float_storage_bound(_relative): ||B_f - B*||_inf for B_f solving the system with
+// `stored` (the certified matrix `certified` rounded to another precision) in place of F. With
+// J = diag(rho) F and dJ = diag(rho)(stored - certified): B_f - B* = (I - J - dJ)^-1 dJ B*, and
+// by the Banach lemma ||(I - J - dJ)^-1|| <= N / (1 - N ||dJ||), N = ref.inverse_norm_bound, so
+//   ||B_f - B*|| <= N (||dJ B_ref|| + ||dJ|| bound_inf) / (1 - N ||dJ||)
+// (B_ref within bound_inf of B*), every norm taken over channels and summed in long double from
+// the two matrices' actual entries. Infinite when N ||dJ|| >= 1 (the rounding may then move the
+// spectral radius to 1).
+void bound_storage_rounding(const System& system, const FormFactorMatrix& certified,
+                            const FormFactorMatrix& stored, Reference& ref);
 
 // Certifies a stored reference anew against `matrix` (the reference cache): recomputes every
 // channel's residual in long double and the bound residual * channel_inverse_norm (a property of

@@ -160,11 +160,31 @@ TEST(Cli, ToleranceBudgetIsCertified) {
   EXPECT_OUTPUT_HAS(r, "tolerance reached");
 }
 
-TEST(Cli, UnreachableToleranceIsReportedAsStagnation) {
-  // Rounding floors the certified bound near 1e-16: 1e-30 cannot be reached.
+TEST(Cli, ToleranceBelowTheCertifiableFloorIsRefusedNamingIt) {
+  // No certified bound can go below the reference's own (rounding of B* to double and of the
+  // residual sum): 1e-30 cannot be certified, and saying "stagnated" (exit 4) after solving
+  // blamed solvers that had converged (issue 35.3). Refused before solving, with the floor.
   Result r = radlab("solve builtin:cube:rho=0.5 --subdiv 2 --solver gauss-seidel --tol 1e-30");
-  EXPECT_EQ(r.code, 4);
-  EXPECT_OUTPUT_HAS(r, "stagnated");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_OUTPUT_HAS(r, "below the certifiable floor");
+  EXPECT_OUTPUT_HAS(r, "the reference's own certified bound is");
+  // The issue's case: 1e-9 of the reflected light on the rho 0.05 room is 4.6e-18 of max B*
+  // (the lamp's), below the reference's ~1.4e-16; it used to end "stagnated", nothing written.
+  r = radlab(
+      "solve builtin:tiny-light:rho=0.05 --solver gauss-seidel --tol 1e-9 --tol-of reflected");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_OUTPUT_HAS(r, "of max(B* - E) is below the certifiable floor");
+  EXPECT_OUTPUT_HAS(r, "of max(B* - E))");
+}
+
+TEST(Cli, NegativeRadiositiesAreSaidInTheVerdict) {
+  // Over-relaxed Gauss-Seidel leaves 44 radiosities below zero on the Cornell box after 3,000
+  // rows (lowest -0.150); it used to end exit 0 with no word (issue 35.5).
+  Result r =
+      radlab("solve builtin:cornell --subdiv 4 --solver gauss-seidel --set omega=1.9 --rows 3000");
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_OUTPUT_HAS(r, "radiosity values are negative (lowest");
+  EXPECT_OUTPUT_HAS(r, "negative_radiosities");
 }
 
 TEST(Cli, ToleranceNotReachedExitsFiveAfterWritingEverything) {

@@ -36,7 +36,31 @@ TEST(ErrorMetrics, DarkElementsAreLeftOutOfPError) {
   est.at(0, 0) = 1.1, est.at(0, 1) = 1.0, est.at(0, 2) = 0.5;
   ErrorMetrics m = compare(est, ref, std::vector<double>{1, 1, 1}, 0);
   EXPECT_EQ(m.p_excluded, 2u);
+  EXPECT_NEAR(m.p_excluded_area, 2.0 / 3.0, 1e-15);
   EXPECT_NEAR(m.p_max, 0.1, 1e-12);
+}
+
+TEST(ErrorMetrics, ALitRoomBesideABrightLampIsNotLeftOut) {
+  // builtin:tiny-light:size=3e-4 in numbers: a 0.3 mm lamp (9e-8 m^2) of B* = 1e6 and a 94 m^2
+  // room lit by its 0.09 W, B* ~ 1e-3. The old rule (1e-9 of max B*: 1e-3) left the room's
+  // darker part out of p (208 of 448 elements at --subdiv 8, issue 35.4); here the 60 m^2 at
+  // 3e-4. The mean of B* is power per area, 1.6e-3 here (the lamp's 0.09 W and the room's
+  // reflection): 1e-9 of it keeps every lit element.
+  // A dark element (B* = 0, no light arrives) is still left out, and its area reported.
+  Radiosity ref(1, 4), est(1, 4);
+  ref.at(0, 0) = 1e6, ref.at(0, 1) = 3e-4, ref.at(0, 2) = 1.5e-3, ref.at(0, 3) = 0.0;
+  est.at(0, 0) = 1e6, est.at(0, 1) = 3.75e-4, est.at(0, 2) = 1.5e-3, est.at(0, 3) = 1e-3;
+  const std::vector<double> area = {9e-8, 60.0, 30.0, 4.0};
+  const ErrorMetrics m = compare(est, ref, area, 0);
+  EXPECT_EQ(m.p_excluded, 1u);
+  EXPECT_NEAR(m.p_excluded_area, 4.0 / (94.0 + 9e-8), 1e-15);
+  // |p| = 0.25 on 60 m^2 of the 90 m^2 (plus the lamp's 9e-8) kept.
+  EXPECT_NEAR(m.p_mean, 0.25 * 60.0 / (90.0 + 9e-8), 1e-12);
+  EXPECT_NEAR(m.p_max, 0.25, 1e-12);
+  std::vector<double> p(4);
+  relative_errors(est, ref, area, 0, p);
+  EXPECT_NEAR(p[1], 0.25, 1e-12);
+  EXPECT_EQ(p[3], 0.0);
 }
 
 TEST(ErrorMetrics, MeanOfChannelsAndSingleChannels) {

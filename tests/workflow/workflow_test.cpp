@@ -292,11 +292,12 @@ TEST(Workflow, FailuresFailTheirJobWithRadlabsMessage) {
     GTEST_SKIP() << "snakemake is not installed (scripts/install-deps.sh installs Debian's "
                     "snakemake): the workflow is not tested";
   TempDir dir;
-  // A tolerance below rounding: every run stagnates, a numerical failure (exit 4).
+  // A tolerance below the float storage floor (~8e-9 of max B*; above the reference's own,
+  // ~1.6e-15, which would be refused): every run stagnates, a numerical failure (exit 4).
   const std::string stiff = dir.write("stiff.toml",
                                       "name = \"stiff\"\nscenes = [\"builtin:cube\"]\nsubdiv = 2\n"
                                       "solvers = [\"gauss-seidel\", \"jacobi\"]\n"
-                                      "[form_factors]\nrays = 4\n[budget]\ntol = 1e-30\n");
+                                      "[form_factors]\nrays = 4\n[budget]\ntol = 1e-12\n");
   const Result failed =
       shell(snakemake(dir.file("w"), stiff, 2, dir.file("out"), dir.file("cache")));
   EXPECT_NE(failed.code, 0) << failed.output;

@@ -79,7 +79,7 @@ TEST(Columns, PublishedColumnsKeepTheirNamesAndOrder) {
   EXPECT_EQ(std::vector<std::string>(trace.begin(), trace.begin() + long(trace_published.size())),
             trace_published);
   const std::vector<std::string> summary = summary_columns();
-  ASSERT_GE(summary.size(), 57u);
+  ASSERT_GE(summary.size(), 58u);
   EXPECT_EQ(summary[0], "run_index");
   EXPECT_EQ(summary[10], "stop_reason");
   EXPECT_EQ(summary[17], "rows_to_rms_rel_1e-1");
@@ -88,6 +88,7 @@ TEST(Columns, PublishedColumnsKeepTheirNamesAndOrder) {
   EXPECT_EQ(summary[46], "seconds_to_rms_rel_reflected_1e-1");
   EXPECT_EQ(summary[55], "bound_relative_reflected");
   EXPECT_EQ(summary[56], "solver_statistics");
+  EXPECT_EQ(summary[57], "p_excluded_area");
 }
 
 // A new metric is one entry: the area-weighted L1 error relative to the reference's area-weighted

@@ -357,13 +357,14 @@ omega = [1.5, 1.0]
   EXPECT_EQ(u.exit_code(), 2);
   EXPECT_EQ(u.failures[0].code, ExitCode::kUsage);
 
-  // A failure during the steps: an unreachable tolerance stagnates. The trace keeps the
-  // checkpoints written before it.
+  // A failure during the steps: a tolerance below the float storage floor (F read in float,
+  // ~8e-9 of max B* away; the reference's own floor is ~1.6e-15) stagnates. The trace keeps
+  // the checkpoints written before it.
   ExperimentSpec stagnating = read_experiment(dir.write("s.toml", R"(scenes = ["builtin:cube"]
 subdiv = 2
 solvers = ["gauss-seidel"]
 [budget]
-tol = 1e-30
+tol = 1e-12
 )"));
   SweepReport st = run_sweep(stagnating, {dir.file("s"), 0, 1, "test"});
   ASSERT_EQ(st.failures.size(), 1u);

@@ -554,5 +554,64 @@ TEST(Overshooting, FusedSelectionIsTheFullScanStepByStep) {
   }
 }
 
+TEST(Overshooting, AmbientClampDivergesNearRhoOneAndItsHelpSaysSo) {
+  // clamp=true never counts the negative unshot radiosity that overshoots leave, so with the
+  // ambient estimate (R = 1/(1 - rho) = 100 at rho 0.99) every round over-shoots more: on the
+  // closed cube at rho 0.99 the radiosities leave any bound (the runner's divergence test stops it
+  // by step ~36, exit 4), while clamp=false stays within the solution's scale. Its help used to
+  // call it "steadier" (issue 35.5); it must say it diverges.
+  auto s = setup("cube:rho=0.99", 4, Precision::kDouble);
+  double top = 0.0;
+  for (double b : s->reference.B.raw()) top = std::max(top, b);
+  for (bool clamp : {true, false}) {
+    auto solver = make("overshooting", {"variant=ambient", clamp ? "clamp=true" : "clamp=false"});
+    solver->init(*s->system);
+    double largest = 0.0;
+    for (int k = 0; k < 200; ++k) {
+      solver->step();
+      for (double b : solver->solution().raw()) largest = std::max(largest, std::abs(b));
+    }
+    // 1e6 x max B*: divergence, not a transient (clamp=false peaks within 10x of it).
+    if (clamp)
+      EXPECT_GT(largest, 1e6 * top);
+    else
+      EXPECT_LT(largest, 10.0 * top);
+  }
+  std::string help;
+  for (const ParameterInfo& p : solver_info("overshooting").parameters)
+    if (p.name == "clamp") help = p.help;
+  EXPECT_NE(help.find("diverges"), std::string::npos) << help;
+}
+
+TEST(GaussSeidel, NegativeRadiositiesOfOverRelaxationAreCounted) {
+  // SOR at omega 1.9 overshoots below zero (the Cornell box: -0.15 after 3,000 rows); the
+  // solver's statistics say how many values are negative and the lowest any element took, which
+  // run.json and `radlab solve` print (issue 35.5). At omega 1 (from B = E, all terms
+  // non-negative) none is.
+  auto s = setup("cornell", 4);
+  for (const char* omega : {"omega=1.9", "omega=1"}) {
+    auto solver = make("gauss-seidel", {omega});
+    solver->init(*s->system);
+    double lowest = 0.0, negative = 0.0;
+    for (int k = 0; k < 3000; ++k) solver->step();
+    for (double b : solver->solution().raw()) {
+      lowest = std::min(lowest, b);
+      negative += b < 0.0 ? 1.0 : 0.0;
+    }
+    std::map<std::string, double> st;
+    for (const auto& [k, v] : solver->statistics()) st[k] = v;
+    ASSERT_TRUE(st.count("negative_radiosities")) << omega;
+    EXPECT_EQ(st["negative_radiosities"], negative) << omega;
+    EXPECT_EQ(st["min_radiosity"], lowest) << omega;
+    EXPECT_LE(st["min_radiosity_seen"], lowest) << omega;
+    if (std::string(omega) == "omega=1.9") {
+      EXPECT_GT(negative, 0.0);
+      EXPECT_LT(st["min_radiosity_seen"], 0.0);
+    } else {
+      EXPECT_EQ(st["min_radiosity_seen"], 0.0);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace radlab

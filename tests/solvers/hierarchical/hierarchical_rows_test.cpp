@@ -9,6 +9,8 @@
 #include <cmath>
 #include <map>
 
+#include "experiments/problem/problem.h"
+#include "experiments/run/runner.h"
 #include "formfactor/methods/raycast.h"
 #include "metrics/error_metrics.h"
 #include "scene/builtin/builtin_scenes.h"
@@ -162,6 +164,26 @@ TEST(HierarchicalRows, ClosedCubeAtRho0999ConvergesToTheCertifiedReference) {
       compare(solver->solution(), s->reference.B, s->system->area(), kMeanOfChannels).rms_rel;
   std::printf("closed cube rho 0.999: rms_rel %.3g against the certified reference\n", rms);
   EXPECT_LT(rms, 1e-3);
+}
+
+TEST(HierarchicalBudget, TheDefaultBudgetSaysItStoppedBeforeTheSolverFinished) {
+  // No budget: the runner's default is 3n steps, which for hierarchical radiosity are whole
+  // passes; at rho 0.999 its passes contract by 0.999 each (Jacobi in the max norm), so reaching
+  // its own stop (1e-14 of max B) needs ln(1e-14)/ln(0.999) ~ 32,000, not 3 x 24 = 72. It used to
+  // end "step budget" at rms_rel 0.75, exit 0, read as a result (issue 35.5); the stop reason now
+  // says the budget was the default and the solver had not finished.
+  ProblemSpec spec;
+  spec.scene = "builtin:cube:rho=0.999";
+  spec.mesh.subdivisions = 2;
+  spec.use_cache = false;
+  auto problem = prepare_problem(spec);
+  ParamBag bag = ParamBag::from_assignments({}, "solver 'hierarchical'");
+  auto solver = make_solver("hierarchical", bag);
+  const RunResult r = run_solver(*solver, *problem, Budget{}, CheckpointSchedule{},
+                                 {"r", "cube", "hierarchical", ""}, nullptr);
+  EXPECT_EQ(r.steps, 72);
+  EXPECT_NE(r.stop_reason.find("the default of 3n = 72 steps"), std::string::npos) << r.stop_reason;
+  EXPECT_NE(r.stop_reason.find("had not finished"), std::string::npos) << r.stop_reason;
 }
 
 }  // namespace
