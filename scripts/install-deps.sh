@@ -7,7 +7,7 @@ set -euo pipefail
 packages=(
   build-essential cmake git pkg-config
   libglm-dev libembree-dev libopenexr-dev libceres-dev libeigen3-dev libtbb-dev
-  libcli11-dev libtomlplusplus-dev libpng-dev nlohmann-json3-dev
+  libcli11-dev libtomlplusplus-dev libpng-dev nlohmann-json3-dev libboost-dev
   libgtest-dev libbenchmark-dev clang-format
   python3 python3-matplotlib python3-numpy python3-pandas
   snakemake  # workflow/Snakefile and its test (76 packages, 682 MB with python3-azure)

@@ -45,6 +45,7 @@ std::vector<SolverInfo> builtin_solvers() {
       conjugate_gradient_solver_info(),
       hierarchical_solver_info(),
       adaptive_shooting_solver_info(),
+      stochastic_jacobi_solver_info(),
   };
   for (SolverInfo& info : table) {
     const std::string problems = complete_parameters(info);
