@@ -86,12 +86,14 @@ TEST_P(EverySolver, ReachesTheReference) {
     long long step = 0;
     double error = 1.0;
     if (GetParam() == kMonteCarlo) {
-      // 60 steps of the default 10^4 rays on 24 elements: ~400 hits per element and step, so a
-      // relative standard error of ~5% per regular step and, averaged over the ~50 regular steps
-      // (correlated by rho from step to step: an effective count of (1-rho)/(1+rho) of them),
-      // ~1.2% at rho = 0.5 and ~3% at rho = 0.9 (max over elements: x2.5). Asserted: max
-      // relative error <= 0.02/(1-rho), above that bound and the exact-vs-raycast F difference
-      // (~1e-3 here). Measured in docs/solvers.md.
+      // 60 steps of the default 10^4 rays on 24 elements: ~400 hits per element and step, a
+      // relative standard error of ~5% per regular step, averaged over the regular steps (54 at
+      // rho = 0.5, 17 at rho = 0.9 after 43 incremental ones; consecutive iterates correlated by
+      // rho), plus the incremental deficit's bias (~1% of B at the switch, diluted by the
+      // averaging) and the exact-vs-raycast F difference (~1e-3 here). Asserted: max relative
+      // error <= 0.02/(1-rho) (0.04 at rho = 0.5, 0.2 at 0.9), several standard errors above
+      // what is expected; `radlab solve builtin:cube:rho=R --subdiv 2 --solver
+      // stochastic-jacobi --steps 60` gives 0.015 at rho = 0.5 and 0.037 at 0.9 (docs/solvers.md).
       for (int k = 0; k < 60; ++k) solver->step();
       EXPECT_EQ(s->system->rows_used(), 0u);
       EXPECT_LE(max_relative_error(solver->solution(), s->reference.B),
