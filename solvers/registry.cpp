@@ -90,6 +90,10 @@ const SolverInfo& solver_info(const std::string& name) {
   throw UsageError("unknown solver '" + name + "'; solvers: " + text::join(names, ", "));
 }
 
+bool needs_step_or_time_budget(const std::string& name) {
+  return name == "stochastic-jacobi";
+}
+
 std::unique_ptr<Solver> make_solver(const std::string& name, ParamBag& parameters) {
   const SolverInfo& info = solver_info(name);
   std::unique_ptr<Solver> solver = info.make(parameters);

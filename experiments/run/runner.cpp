@@ -10,6 +10,7 @@
 #include "core/progress.h"
 #include "core/text.h"
 #include "experiments/problem/two_level_problem.h"
+#include "solvers/registry.h"
 
 namespace radlab {
 
@@ -253,6 +254,10 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
   if (budget.empty()) budget.steps = 3 * static_cast<long long>(system.size());
   if (!budget.steps && !budget.rows && !budget.seconds)
     budget.rows = 1000 * static_cast<long long>(system.size());
+  if (!budget.steps && !budget.seconds && needs_step_or_time_budget(labels.solver))
+    throw UsageError(labels.solver +
+                     " reads no form-factor rows and never finishes by itself: a budget in rows "
+                     "(or a tolerance alone) cannot end its run; give steps or seconds");
 
   RunResult result;
   Evaluator evaluator(problem, labels, trace);
