@@ -7,7 +7,7 @@ set -euo pipefail
 packages=(
   build-essential cmake git pkg-config
   libglm-dev libembree-dev libopenexr-dev libceres-dev libeigen3-dev libtbb-dev
-  libcli11-dev libtomlplusplus-dev libpng-dev nlohmann-json3-dev
+  libcli11-dev libtomlplusplus-dev libpng-dev nlohmann-json3-dev libboost-dev
   libgtest-dev libbenchmark-dev clang-format
   libcgal-dev  # scene/triangulate.cpp (header-only)
   libboost-dev  # Boost.Geometry R-tree in scene/overlap.cpp (header-only)

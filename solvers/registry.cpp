@@ -46,6 +46,7 @@ std::vector<SolverInfo> builtin_solvers() {
       conjugate_gradient_solver_info(),
       hierarchical_solver_info(),
       adaptive_shooting_solver_info(),
+      stochastic_jacobi_solver_info(),
   };
   for (SolverInfo& info : table) {
     const std::string problems = complete_parameters(info);
@@ -89,6 +90,10 @@ const SolverInfo& solver_info(const std::string& name) {
   std::vector<std::string> names;
   for (const SolverInfo& info : solver_registry()) names.push_back(info.name);
   throw UsageError("unknown solver '" + name + "'; solvers: " + text::join(names, ", "));
+}
+
+bool needs_step_or_time_budget(const std::string& name) {
+  return name == "stochastic-jacobi";
 }
 
 std::unique_ptr<Solver> make_solver(const std::string& name, ParamBag& parameters) {

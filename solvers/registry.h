@@ -57,6 +57,11 @@ std::unique_ptr<Solver> make_solver(const std::string& name, ParamBag& parameter
 
 const SolverInfo& solver_info(const std::string& name);
 
+// True for the solvers that read no form-factor row and never finish by themselves (the Monte
+// Carlo ones: every step refines an average): a budget in rows alone cannot end their runs, so
+// the runner refuses one and an experiment's "all" leaves them out.
+bool needs_step_or_time_budget(const std::string& name);
+
 // The keys make() reads from an empty bag, with the defaults of its options struct as text.
 std::map<std::string, std::string> read_parameter_defaults(const SolverInfo& info);
 

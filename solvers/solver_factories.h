@@ -13,5 +13,6 @@ SolverInfo interleaved_solver_info();         // interleaved.cpp
 SolverInfo conjugate_gradient_solver_info();  // conjugate_gradient.cpp
 SolverInfo hierarchical_solver_info();        // hierarchical.cpp
 SolverInfo adaptive_shooting_solver_info();   // two_level_adaptive.cpp
+SolverInfo stochastic_jacobi_solver_info();   // monte_carlo/stochastic_jacobi.cpp
 
 }  // namespace radlab

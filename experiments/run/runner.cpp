@@ -10,6 +10,7 @@
 #include "core/progress.h"
 #include "core/text.h"
 #include "experiments/problem/two_level_problem.h"
+#include "solvers/registry.h"
 
 namespace radlab {
 
@@ -343,6 +344,10 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
   Evaluator evaluator(problem, labels, trace);
   const double scale = evaluator.reflected_scale();
   const Budget budget = kept_budget(budget_in, problem, scale);
+  if (!budget.steps && !budget.seconds && needs_step_or_time_budget(labels.solver))
+    throw UsageError(labels.solver +
+                     " reads no form-factor rows and never finishes by itself: a budget in rows "
+                     "(or a tolerance alone) cannot end its run; give steps or seconds");
   const std::string tolerance = tolerance_text(budget, budget_in);
   using Clock = std::chrono::steady_clock;
   system.reset_counters();

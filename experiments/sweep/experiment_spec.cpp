@@ -245,10 +245,13 @@ void read_patches(const Reader& r, const toml::table& root, ExperimentSpec& spec
 // "all" means every solver that runs on this problem's system (docs/experiments.md):
 // adaptive-shooting needs patches (on one level it is sorted-shooting again); on two levels
 // conjugate-gradient needs a reciprocal system (K is not: A_e K_ej != A_j K_je) and
-// hierarchical solves its own one-level system.
+// hierarchical solves its own one-level system. The Monte Carlo solvers are left out
+// (needs_step_or_time_budget: "all" runs share a budget, usually in rows, which they never spend);
+// list them by name with a steps or seconds budget.
 void narrow_all_solvers(ExperimentSpec& spec) {
   const bool two = spec.patches.two_level();
   std::erase_if(spec.solvers, [two](const SolverSweep& s) {
+    if (needs_step_or_time_budget(s.name)) return true;
     return two ? s.name == "conjugate-gradient" || s.name == "hierarchical"
                : s.name == "adaptive-shooting";
   });

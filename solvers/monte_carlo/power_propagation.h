@@ -1,0 +1,57 @@
+// One Monte Carlo propagation of power through the scene (Neumann et al. 1994; Bekaert 1999,
+// ch. 4): the matrix-free estimate of R x = diag(rho) F x on which stochastic Jacobi rests.
+//
+// Given per-element values x (one or three channels, any sign), element i holds power
+// P_i = A_i x_i. N rays are cast: each picks a source element with probability
+// p_i = |P_i| / sum_k |P_k| (|P| summed over channels), a uniform point on it and a
+// cosine-distributed direction, and carries P_i / (N p_i) in every channel. The closest hit j
+// (Embree), when it is the front face of an element, receives rho_j P_i / (N p_i A_j) into y_j.
+// A ray from i lands on j with probability F_ij, so E[y_j] = rho_j sum_i P_i F_ij / A_j
+// = rho_j sum_i F_ji x_i (reciprocity, A_i F_ij = A_j F_ji): E[y] = R x, exactly, for any x.
+// Rays that escape (open scenes), hit a back face or nothing deposit nothing, as F is zero
+// there.
+//
+// Determinism: the rays are traced in parallel (TBB) in blocks, but every ray's numbers come
+// from the stream in ray order and the deposits are summed serially in ray order, so the result
+// is the same bits on any number of threads.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "core/radiosity.h"
+#include "formfactor/visibility/embree_scene.h"
+#include "scene/mesh.h"
+#include "solvers/monte_carlo/ray_sampler.h"
+
+namespace radlab::monte_carlo {
+
+class PowerPropagation {
+ public:
+  // `mesh` and `reflectance` must outlive this object.
+  PowerPropagation(const Mesh& mesh, const Radiosity& reflectance);
+
+  // y = an estimate of R x with `rays` rays, numbers from `stream` (blocks numbered from
+  // `*block`, which advances). Returns the rays cast (0 when x carries no power).
+  uint64_t propagate(const Radiosity& x, uint64_t rays, UniformStream& stream, uint64_t* block,
+                     Radiosity& y) const;
+
+  // For each element j, the fraction of `rays_per_element` cosine-distributed rays from it
+  // that land on the front face of an element: an unbiased estimate of sum_i F_ji (1 in a
+  // closed scene, where every ray lands). Returns the rays cast.
+  uint64_t landing_fraction(uint64_t rays_per_element, UniformStream& stream, uint64_t* block,
+                            std::vector<double>& out) const;
+
+ private:
+  static constexpr uint32_t kMiss = 0xFFFFFFFFu;
+  // The element whose front face the ray from a point on `source` meets first, or kMiss.
+  uint32_t trace(size_t source, const double* u) const;
+
+  const Mesh& mesh_;
+  const Radiosity& reflectance_;
+  std::unique_ptr<EmbreeScene> embree_;
+  double t_near_ = 0.0;
+};
+
+}  // namespace radlab::monte_carlo
