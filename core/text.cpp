@@ -100,4 +100,14 @@ std::string join(const std::vector<std::string>& items, std::string_view separat
   return out;
 }
 
+std::string printable_prefix(std::string_view word, size_t max_chars) {
+  std::string out;
+  for (char c : word.substr(0, max_chars)) {
+    const auto u = static_cast<unsigned char>(c);
+    out += (u >= 0x20 && u < 0x7f) ? c : '?';
+  }
+  if (word.size() > max_chars) out += "...";
+  return out;
+}
+
 }  // namespace radlab::text

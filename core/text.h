@@ -28,4 +28,9 @@ std::string format_double(double value);
 // Joins with a separator, e.g. the list of valid keys in an error message.
 std::string join(const std::vector<std::string>& items, std::string_view separator);
 
+// A word read from a file as a message may quote it: at most `max_chars` characters, control and
+// non-ASCII bytes as '?', "..." when cut. An error then never echoes a file's contents (a
+// misnamed /etc/passwd, a binary file) beyond a few bytes.
+std::string printable_prefix(std::string_view word, size_t max_chars);
+
 }  // namespace radlab::text

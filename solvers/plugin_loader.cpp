@@ -13,6 +13,7 @@
 
 #include "core/error.h"
 #include "core/log.h"
+#include "core/paths.h"
 #include "core/text.h"
 #include "formfactor/registry.h"
 #include "solvers/plugin.h"
@@ -39,16 +40,6 @@ struct Requested {
 Requested& requested() {
   static Requested r;
   return r;
-}
-
-// True when `path` (canonical) lies inside `folder` (canonical).
-bool inside(const fs::path& path, const fs::path& folder) {
-  auto p = path.begin();
-  for (auto f = folder.begin(); f != folder.end(); ++f, ++p) {
-    if (f->empty()) continue;  // a trailing separator
-    if (p == path.end() || *p != *f) return false;
-  }
-  return true;
 }
 
 std::string version_text(int major, int minor, int patch) {
@@ -136,7 +127,7 @@ std::vector<std::string> load_plugins_from_environment() {
         if (file.path().extension() != ".so") continue;
         std::error_code link_ec;
         const fs::path target = fs::canonical(file.path(), link_ec);
-        if (link_ec || !inside(target, folder) || !fs::is_regular_file(target, link_ec)) {
+        if (link_ec || !path_within(target, folder) || !fs::is_regular_file(target, link_ec)) {
           log::warning("RADLAB_PLUGIN_PATH: " + file.path().string() +
                        " skipped: not a regular file in " + folder.string() +
                        " (a link to another place, or to nothing); name it by its own path");

@@ -21,6 +21,7 @@
 #include "core/error.h"
 #include "core/limits.h"
 #include "core/log.h"
+#include "core/paths.h"
 #include "core/text.h"
 #include "scene/cie_colour.h"
 #include "scene/geometry.h"
@@ -41,27 +42,9 @@ constexpr long kMaxIncludes = 10000;
 // makes no polygon still costs time): the work bound is this times limits().polygons.
 constexpr double kStatementsPerPolygon = 4.0;
 
-// A word from the file as quoted in a message: at most 24 characters, control and non-ASCII
-// bytes replaced, so an error never echoes a file's contents (an included /etc/passwd's first
-// line, a binary file).
+// A word from the file as quoted in a message: at most 24 characters (core/text.h).
 std::string quoted(const std::string& word) {
-  std::string out;
-  for (char c : word.substr(0, 24)) {
-    const auto u = static_cast<unsigned char>(c);
-    out += (u >= 0x20 && u < 0x7f) ? c : '?';
-  }
-  if (word.size() > 24) out += "...";
-  return out;
-}
-
-// True when `path` (canonical) lies inside `root` (canonical).
-bool inside(const fs::path& path, const fs::path& root) {
-  auto p = path.begin();
-  for (auto r = root.begin(); r != root.end(); ++r, ++p) {
-    if (r->empty()) continue;  // a trailing separator
-    if (p == path.end() || *p != *r) return false;
-  }
-  return true;
+  return text::printable_prefix(word, 24);
 }
 // Chromaticities this close to (1/3, 1/3) are MGF's neutral: the files write 0.333 or 0.3330 for
 // it, and the difference (below the precision they carry) would otherwise make every grey
@@ -303,7 +286,7 @@ class Reader {
     if (transformed) groups = parse_transform(s, 2);
     if (!fs::exists(path)) fail("'i': included file '" + path.string() + "' not found");
     std::error_code ec;
-    if (!inside(fs::weakly_canonical(path, ec), root_))
+    if (!path_within(fs::weakly_canonical(path, ec), root_))
       fail("'i': '" + path.lexically_normal().string() + "' lies outside the scene's folder " +
            root_.string() + " (to read it, name a folder that holds both with " +
            "--mgf-include-root DIR)");

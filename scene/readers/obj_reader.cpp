@@ -9,6 +9,7 @@
 #include "core/error.h"
 #include "core/limits.h"
 #include "core/log.h"
+#include "core/paths.h"
 #include "core/text.h"
 
 namespace radlab {
@@ -16,26 +17,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// At most 12 characters of a word radlab did not understand, non-printable bytes as '?': enough
-// to find a misspelt key, too little to disclose a file named by mistake (or on purpose).
+// At most 12 characters of a word radlab did not understand (core/text.h): enough to find a
+// misspelt key, too little to disclose a file named by mistake (or on purpose).
 std::string shown(std::string_view word) {
-  std::string out;
-  for (char c : word.substr(0, 12)) {
-    const auto u = static_cast<unsigned char>(c);
-    out += (u >= 0x20 && u < 0x7f) ? c : '?';
-  }
-  if (word.size() > 12) out += "...";
-  return out;
-}
-
-// True when `path` (canonical) lies inside `root` (canonical).
-bool inside(const fs::path& path, const fs::path& root) {
-  auto p = path.begin();
-  for (auto r = root.begin(); r != root.end(); ++r, ++p) {
-    if (r->empty()) continue;  // a trailing separator
-    if (p == path.end() || *p != *r) return false;
-  }
-  return true;
+  return text::printable_prefix(word, 12);
 }
 
 struct LineReader {
@@ -244,7 +229,7 @@ Scene read_obj(const std::string& path, const ObjOptions& options) {
         if (!fs::is_regular_file(lib, ec))
           reader.fail("'mtllib': material library '" + lib.string() +
                       "' not found (or not a regular file)");
-        if (!inside(fs::weakly_canonical(lib, ec), root))
+        if (!path_within(fs::weakly_canonical(lib, ec), root))
           reader.fail("'mtllib': '" + lib.lexically_normal().string() +
                       "' lies outside the scene's folder " + root.string() +
                       " (to read it, name a folder that holds both with --mgf-include-root DIR)");
