@@ -1,13 +1,17 @@
 #!/usr/bin/env bash
-# The main job: installs what is missing, builds Release, and runs the default experiment
+# The main job: installs what it needs and is missing (scripts/install-deps.sh main), builds the
+# `radlab` command alone (Release, in build/; no tests or benchmarks), runs the default experiment
 # (experiments/quick.toml: every solver on the built-in Cornell box, about a minute here), then
 # draws its convergence plots and a contact sheet of its images.
 # Usage: scripts/run-main.sh [OUT_DIR]   (default out/main)
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 out="${1:-$root/out/main}"
-"$root/scripts/install-deps.sh"
-"$root/scripts/build.sh" "$root/build"
+"$root/scripts/install-deps.sh" main
+# Tests and benchmarks off: their packages belong to the test command, and the main job runs
+# neither. scripts/build.sh (no arguments) turns them back on in build/.
+"$root/scripts/build.sh" --target radlab "$root/build" -DRADLAB_BUILD_TESTS=OFF \
+  -DRADLAB_BUILD_BENCHMARKS=OFF
 source "$root/scripts/python.sh"   # sets $python: a python3 with matplotlib, numpy and pandas
 
 "$root/build/cli/radlab" run "$root/experiments/quick.toml" --out "$out"
