@@ -21,8 +21,11 @@ if [ ! -f "$build/CMakeCache.txt" ] && command -v ninja >/dev/null 2>&1; then
   configure+=(-G Ninja)
 fi
 # ccache makes a rebuild of unchanged sources a copy (CCACHE_DISABLE=1 turns it off for a run).
+# The precompiled headers (CLI11, GoogleTest, nlohmann-json) are cacheable only with this
+# sloppiness (ccache's manual, "Precompiled headers").
 if command -v ccache >/dev/null 2>&1; then
   configure+=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+  export CCACHE_SLOPPINESS="${CCACHE_SLOPPINESS:-pch_defines,time_macros,include_file_mtime,include_file_ctime}"
 else
   configure+=(-DCMAKE_CXX_COMPILER_LAUNCHER=)
 fi
