@@ -58,6 +58,7 @@ int main(int argc, char** argv) {
   radlab::cli::add_run_command(app, argc, argv);
   radlab::cli::add_merge_command(app);
   radlab::cli::add_prepare_command(app);
+  radlab::cli::add_report_command(app);
   app.parse_complete_callback([&]() {
     radlab::log::set_quiet(quiet);
     if (!limits.empty()) radlab::set_limits(limits);
