@@ -55,5 +55,6 @@ void add_solve_command(CLI::App& app, int argc, char** argv);
 void add_run_command(CLI::App& app, int argc, char** argv);
 void add_merge_command(CLI::App& app);
 void add_prepare_command(CLI::App& app);
+void add_report_command(CLI::App& app);
 
 }  // namespace radlab::cli

@@ -6,6 +6,7 @@
 #include "core/error.h"
 #include "core/log.h"
 #include "experiments/run/outputs.h"
+#include "experiments/run/report_page.h"
 #include "experiments/sweep/merge.h"
 #include "experiments/sweep/sweep.h"
 
@@ -45,10 +46,13 @@ void add_run_command(CLI::App& app, int argc, char** argv) {
     if (report.runs_resumed > 0)
       std::printf("resumed: %zu runs were already complete from an interrupted attempt\n",
                   report.runs_resumed);
-    std::printf("ran %zu of %zu runs; results in %s (trace.csv, summary.csv, runs/%s%s)\n",
-                report.runs_done, report.runs_total, options.out_dir.c_str(),
-                spec.images.steps.empty() ? "" : ", images/",
-                spec.coverage_steps.empty() ? "" : ", coverage/");
+    // The sweep is complete (failed runs included, in its summary): the page to open first.
+    write_report_page(options.out_dir);
+    std::printf(
+        "ran %zu of %zu runs; results in %s (index.html, trace.csv, summary.csv, runs/%s%s)\n",
+        report.runs_done, report.runs_total, options.out_dir.c_str(),
+        spec.images.steps.empty() ? "" : ", images/",
+        spec.coverage_steps.empty() ? "" : ", coverage/");
     if (!report.failures.empty()) {
       // The others finished and everything is written; the exit code says a run failed
       // (4 if any failed numerically, else 3 or 2).
@@ -79,6 +83,8 @@ void add_merge_command(CLI::App& app) {
     if (*allow_incomplete) options.command += " --allow-incomplete";
     options.allow_incomplete = *allow_incomplete;
     const size_t runs = merge_shards(*dirs, *out, options);
+    // An --allow-incomplete merge that lacks runs gets no page (radlab report refuses it too).
+    if (incomplete_sweep_reason(*out).empty()) write_report_page(*out);
     std::printf("merged %zu runs from %zu shards into %s\n", runs, dirs->size(), out->c_str());
   });
 }

@@ -76,6 +76,7 @@ void add_commands(CLI::App& app, int argc, char** argv) {
   radlab::cli::add_run_command(app, argc, argv);
   radlab::cli::add_merge_command(app);
   radlab::cli::add_prepare_command(app);
+  radlab::cli::add_report_command(app);
 }
 
 }  // namespace

@@ -1,20 +1,38 @@
 #!/usr/bin/env bash
-# Installs radlab's build and run dependencies from Debian 12 packages. Idempotent: installs only
-# what is missing, and does nothing (not even apt-get update) when everything is present.
-# Needs root for apt-get; as another user it uses sudo when available, else says what to run.
+# Installs radlab's dependencies from Debian 12 packages, in two groups:
+#   scripts/install-deps.sh main   what the main job needs: the compiler, CMake, Ninja, the
+#                                  libraries radlab links, and python3 with what the plots use
+#   scripts/install-deps.sh test   main's packages and what the tests, benchmarks and style
+#                                  check add (GoogleTest, Google Benchmark, clang-format,
+#                                  Snakemake for the workflow test)
+#   scripts/install-deps.sh        both (the same as test)
+# Idempotent: installs only what is missing, and does nothing (not even apt-get update) when
+# everything is present. Needs root for apt-get; as another user it uses sudo when available,
+# else says what to run. A new dependency goes into the group that needs it.
 set -euo pipefail
 
-packages=(
-  build-essential cmake git pkg-config
+main_packages=(
+  build-essential cmake ninja-build git pkg-config
   libglm-dev libembree-dev libopenexr-dev libceres-dev libeigen3-dev libtbb-dev
-  libcli11-dev libtomlplusplus-dev libpng-dev nlohmann-json3-dev libboost-dev
-  libgtest-dev libbenchmark-dev clang-format
+  libcli11-dev libtomlplusplus-dev libpng-dev nlohmann-json3-dev
+  libboost-dev  # Boost.Geometry R-tree (scene/overlap.cpp), Boost.Random Sobol (solvers/monte_carlo)
   libcgal-dev  # scene/triangulate.cpp (header-only)
-  libboost-dev  # Boost.Geometry R-tree in scene/overlap.cpp (header-only)
   libssl-dev  # SHA-256 of loaded plugins (solvers/plugin_loader.cpp)
   python3 python3-matplotlib python3-numpy python3-pandas
+)
+test_packages=(
+  libgtest-dev libbenchmark-dev clang-format
   snakemake  # workflow/Snakefile and its test (76 packages, 682 MB with python3-azure)
 )
+
+case "${1:-test}" in
+  main) packages=("${main_packages[@]}") ;;
+  test) packages=("${main_packages[@]}" "${test_packages[@]}") ;;
+  *)
+    echo "usage: scripts/install-deps.sh [main|test]" >&2
+    exit 2
+    ;;
+esac
 
 missing=()
 for p in "${packages[@]}"; do

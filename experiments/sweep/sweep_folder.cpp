@@ -25,8 +25,8 @@ constexpr const char* kPartialName = ".radlab-partial";
 // Everything a sweep writes into its folder (and the plots drawn from it), and nothing else:
 // --overwrite and a replacing re-run remove exactly these.
 constexpr const char* kSweepEntries[] = {
-    "sweep.json", "trace.csv", "summary.csv",       "runs",      "images",
-    "coverage",   "plots",     "contact_sheet.png", kPartialName};
+    "sweep.json", "trace.csv",  "summary.csv",       "runs",      "images", "coverage",
+    "plots",      "index.html", "contact_sheet.png", kPartialName};
 
 void clear_sweep_files(const fs::path& out) {
   for (const char* name : kSweepEntries) {
