@@ -91,6 +91,21 @@ class FormFactorMethod {
   // e (A_i F_ij + A_j F_ji) for every pair computed so far; or nullopt when it states none (a
   // hemicube's aliasing, a rule taken at one point of the source).
   virtual std::optional<double> stated_reciprocity_error() const { return std::nullopt; }
+  // Methods that sample each source from one point at a finite resolution (a hemicube's pixels)
+  // state how well row i samples the emitters, measured on each emitting polygon's unoccluded
+  // footprint against the exact point form factor the method approximates (its limit at infinite
+  // resolution): `error` = sum over emitting polygons P of |sum_{j in P} L_j (F~_ij - F°_ij)|
+  // and `exact` = sum_{j emitting} L_j F°_ij, with L_j element j's mean emission over channels and
+  // F~ the footprint's sampled value before occlusion. Both NaN until row i is computed (or
+  // restored from side files); nullopt from methods that state no such error (rows that
+  // integrate over the source carry their errors in the row sums).
+  struct EmitterSampling {
+    double error = 0.0;
+    double exact = 0.0;
+  };
+  virtual std::optional<EmitterSampling> row_emitter_sampling(size_t /*i*/) const {
+    return std::nullopt;
+  }
   // F_ij without visibility when the method can say (the row-sum report tells partly occluded
   // pairs by it), else -1.
   virtual double unoccluded_pair(size_t /*i*/, size_t /*j*/) const { return -1.0; }

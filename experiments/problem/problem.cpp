@@ -56,6 +56,23 @@ void refuse_unphysical(const Problem& problem, bool accept_row_sums, double rati
   if (std::abs(ratio - 1.0) > 0.1) log::warning(std::string("form factors: ") + buffer);
 }
 
+// How well the rows sample the emitters, for methods that state it (a hemicube's pixels on a
+// small lamp): the reference is certified on the same rows, so a run scores itself exact however
+// badly they miss the lamp; this is the only place that can say so. Above 1% of the direct power
+// gathered, a warning (the figure is in run.json either way).
+void check_emitter_sampling(Problem& problem) {
+  problem.emitter_sampling = emitter_sampling_report(*problem.method, problem.mesh);
+  const EmitterSamplingReport& report = problem.emitter_sampling;
+  if (!report.stated) return;
+  const std::string what = "form factors: " + report.text();
+  if (report.relative > 0.01)
+    log::warning(what +
+                 "; the reference is of these rows and cannot see it (raise the "
+                 "resolution, subdivide the emitter less, or use raycast)");
+  else
+    log::info(what);
+}
+
 // "stored sparse, 123.4 MB (45.6% of dense)": what a matrix holds in memory
 // (formfactor/matrix/matrix.h).
 void log_storage(const std::string& what, const FormFactorMatrix& m) {
@@ -303,6 +320,7 @@ void checks_stage(Preparation& p) {
   if (!p.streamed) {
     refuse_unphysical(problem, p.accept_unphysical,
                       emitted_power_ratio(problem.matrix, problem.scene(), problem.mesh));
+    check_emitter_sampling(problem);
     return;
   }
   const StreamedCheck& streamed = *p.streamed;
@@ -323,6 +341,7 @@ void checks_stage(Preparation& p) {
   }
   refuse_unphysical(problem, p.accept_unphysical,
                     sent > 0 ? gathered / sent : (gathered > 0 ? 1e300 : 1.0));
+  check_emitter_sampling(problem);
 }
 
 // What the certificate is of: the method's F in double, symmetrised or not, how the solvers read

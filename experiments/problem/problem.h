@@ -60,11 +60,12 @@ struct Problem {
   std::unique_ptr<FormFactorMethod> gather_rows;
   PatchRowReport patch_row_report;
   BuildReport build;
-  MatrixDiagnostics diagnostics;      // of the matrix the solvers use (symmetrised if asked)
-  MatrixDiagnostics raw_diagnostics;  // of the matrix as the method computed it
-  RowSumCheck row_sums;               // rows of the computed matrix above 1 + stated error
-  RowSumCheck used_row_sums;          // the same for the matrix the solvers use
-  std::unique_ptr<System> system;     // rows from the matrix, or on the fly (RowMode)
+  MatrixDiagnostics diagnostics;           // of the matrix the solvers use (symmetrised if asked)
+  MatrixDiagnostics raw_diagnostics;       // of the matrix as the method computed it
+  RowSumCheck row_sums;                    // rows of the computed matrix above 1 + stated error
+  RowSumCheck used_row_sums;               // the same for the matrix the solvers use
+  EmitterSamplingReport emitter_sampling;  // methods that sample sources from a point (hemicube)
+  std::unique_ptr<System> system;          // rows from the matrix, or on the fly (RowMode)
   std::optional<Reference> reference;
   // Where the cache holds (or would hold) the matrix and reference; empty without a cache.
   std::string matrix_cache_file, reference_cache_file;

@@ -99,6 +99,12 @@ void write_form_factor_info(JsonWriter& json, const Problem& p) {
     json.field("computed_reciprocity_defect_relative",
                p.raw_diagnostics.reciprocity_defect_relative);
   }
+  if (p.emitter_sampling.stated) {  // FormFactorMethod::row_emitter_sampling
+    json.field("emitter_sampling_error", p.emitter_sampling.relative);
+    json.field("emitter_sampling_worst", p.emitter_sampling.worst_relative);
+    json.field("emitter_sampling_worst_element",
+               static_cast<unsigned long long>(p.emitter_sampling.worst_element));
+  }
   json.end_object();
 }
 

@@ -271,4 +271,41 @@ double emitted_power_ratio(const FormFactorMatrix& m, const Scene& scene, const 
   return sent > 0 ? gathered / sent : (gathered > 0 ? 1e300 : 1.0);
 }
 
+EmitterSamplingReport emitter_sampling_report(const FormFactorMethod& method, const Mesh& mesh) {
+  EmitterSamplingReport report;
+  const size_t n = mesh.size();
+  std::vector<FormFactorMethod::EmitterSampling> rows(n);
+  double largest = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    const auto row = method.row_emitter_sampling(i);
+    if (!row || std::isnan(row->error) || std::isnan(row->exact)) return report;  // not stated
+    rows[i] = *row;
+    largest = std::max(largest, row->exact);
+  }
+  report.stated = true;
+  double error = 0.0, exact = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    error += mesh.area[i] * rows[i].error;
+    exact += mesh.area[i] * rows[i].exact;
+    if (rows[i].exact >= 1e-3 * largest && rows[i].exact > 0) {
+      const double relative = rows[i].error / rows[i].exact;
+      if (relative > report.worst_relative) {
+        report.worst_relative = relative;
+        report.worst_element = i;
+      }
+    }
+  }
+  report.relative = exact > 0 ? error / exact : 0.0;
+  return report;
+}
+
+std::string EmitterSamplingReport::text() const {
+  char buffer[200];
+  std::snprintf(buffer, sizeof buffer,
+                "the rows sample the emitters to within %.3g%% of the direct power the elements "
+                "gather (worst: element %zu, %.3g%% of its direct light)",
+                100.0 * relative, worst_element, 100.0 * worst_relative);
+  return buffer;
+}
+
 }  // namespace radlab

@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <glm/geometric.hpp>
 #include <limits>
 #include <map>
@@ -13,6 +14,7 @@
 
 #include "core/error.h"
 #include "formfactor/integrate/point_polygon.h"
+#include "formfactor/matrix/matrix_cache.h"
 #include "formfactor/methods/method_infos.h"
 #include "formfactor/visibility/visibility.h"
 
@@ -147,9 +149,12 @@ constexpr double kCandidateMargin = 1e-5;
 // pixel counted twice, no bias in symmetric scenes. Pixels whose centre lies within kSlack
 // outside the polygon become candidates (see Candidate). `w = a0 + aX X + aY Y` is 1/depth
 // (larger is nearer). Returns the number of depth tests.
+// When `drawn` is given, the weights (`face_weights`) of every pixel whose centre the polygon
+// covers are added to it, before any depth test: the footprint's sampled form factor.
 uint64_t scan_convert(const double* X, const double* Y, int m, int width, int height, double a0,
                       double aX, double aY, int32_t id, float* depth, int32_t* item,
-                      uint32_t face_offset, std::vector<Candidate>& candidates) {
+                      uint32_t face_offset, std::vector<Candidate>& candidates,
+                      const double* face_weights, double* drawn) {
   double ymin = Y[0], ymax = Y[0];
   for (int k = 1; k < m; ++k) {
     ymin = std::min(ymin, Y[k]);
@@ -209,6 +214,8 @@ uint64_t scan_convert(const double* X, const double* Y, int m, int width, int he
     const int ae1 = last_at_or_before(xr + kSlack, width);
     for (int a = std::max(a1i, 0); a <= ae1; ++a) candidate(a, b);
     if (a0i >= a1i) continue;
+    if (drawn)
+      for (int a = a0i; a < a1i; ++a) *drawn += face_weights[size_t(b) * size_t(width) + size_t(a)];
     float* drow = depth + size_t(b) * size_t(width);
     int32_t* irow = item + size_t(b) * size_t(width);
     const double wrow = a0 + aY * yc;
@@ -251,8 +258,10 @@ struct HemicubeFormFactors::Buffers {
   std::vector<uint8_t> face;   // per vertex: the face its direction falls on, kBelow or kNear
   std::vector<double> px, py;  // per vertex: pixel coordinates on that face
   std::vector<Candidate> candidates;
+  std::vector<double> drawn;  // per emitter slot: the footprint's sampled form factor
 
-  void prepare(const HemicubeLayout& layout, size_t vertex_count) {
+  void prepare(const HemicubeLayout& layout, size_t vertex_count, size_t emitters) {
+    drawn.assign(emitters, 0.0);
     depth.assign(layout.pixels(), 0.0f);
     item.assign(layout.pixels(), kNothing);
     local.resize(vertex_count);
@@ -293,6 +302,19 @@ HemicubeFormFactors::HemicubeFormFactors(const Scene& scene, const Mesh& mesh,
     }
     frame_u_[e] = u / length;
   }
+  emitter_luminance_.assign(mesh.size(), 0.0);
+  emitter_slot_.assign(mesh.size(), -1);
+  for (size_t e = 0; e < mesh.size(); ++e) {  // elements of a polygon are consecutive
+    const Rgb& emission =
+        scene.materials[size_t(scene.polygons[mesh.polygon[e]].material)].emission;
+    const double luminance = (emission.x + emission.y + emission.z) / 3.0;
+    if (!(luminance > 0)) continue;
+    emitter_luminance_[e] = luminance;
+    emitter_slot_[e] = int32_t(emitters_.size());
+    emitters_.push_back(uint32_t(e));
+  }
+  row_emitter_error_.assign(mesh.size(), std::numeric_limits<float>::quiet_NaN());
+  row_emitter_exact_ = row_emitter_error_;
 }
 
 namespace {
@@ -478,7 +500,7 @@ uint64_t HemicubeFormFactors::rasterise_at(const Vec3& c, const Vec3& n, const V
                                            int64_t skip, Buffers& buf, RowCost& cost) const {
   const int R = options_.resolution;
   const HemicubeLayout layout{R};
-  buf.prepare(layout, mesh_.vertices.size());
+  buf.prepare(layout, mesh_.vertices.size(), emitters_.size());
   const Vec3 v = glm::cross(n, u);
   const double eps = epsilon_;
   const double near = near_;
@@ -508,6 +530,8 @@ uint64_t HemicubeFormFactors::rasterise_at(const Vec3& c, const Vec3& n, const V
     // meets a front face along a silhouette edge their depths tie, and a back face must never win
     // such a tie (it would show as a hole in a closed scene).
     const double scale = id == kNothing ? (1.0 - 1e-6) / h : 1.0 / h;
+    double* drawn =
+        emitter_slot_[j] >= 0 && id != kNothing ? &buf.drawn[size_t(emitter_slot_[j])] : nullptr;
     // Scan-converts the polygon (X, Y)[0, count) on face f with j's 1/depth plane there.
     auto rasterise_on = [&](int f, int count) {
       const FaceAxes& fa = kFaces[size_t(f)];
@@ -517,7 +541,7 @@ uint64_t HemicubeFormFactors::rasterise_at(const Vec3& c, const Vec3& n, const V
       const size_t offset = layout.face_offset(f);
       tests += scan_convert(X, Y, count, R, layout.face_height(f), a0, aX, aY, id,
                             buf.depth.data() + offset, buf.item.data() + offset, uint32_t(offset),
-                            buf.candidates);
+                            buf.candidates, weights_.data() + offset, drawn);
     };
 
     const uint8_t f0 = buf.face[corners[0]];
@@ -551,6 +575,62 @@ void HemicubeFormFactors::row(size_t i, std::span<double> out, RowCost& cost) co
   thread_local Buffers buffers;
   cost.kernel_evaluations += rasterise(i, buffers, cost);
   accumulate(buffers, out);
+  record_emitter_sampling(i, buffers);
+}
+
+void HemicubeFormFactors::record_emitter_sampling(size_t i, const Buffers& buffers) const {
+  // Per emitting polygon, the signed sum over its elements: pixels on an edge two of its elements
+  // share go to exactly one of them, so only the polygon's outline is sampled.
+  thread_local std::vector<Vec3> corners, scratch;
+  double error = 0.0, exact = 0.0, polygon_error = 0.0;
+  for (size_t k = 0; k < emitters_.size(); ++k) {
+    const size_t j = emitters_[k];
+    if (j != i) {
+      corners.clear();
+      for (uint32_t v : mesh_.element_vertices(j)) corners.push_back(mesh_.vertices[v]);
+      const double point = point_to_polygon_form_factor(mesh_.centroid[i], mesh_.normal[i], corners,
+                                                        mesh_.normal[j], scratch);
+      const double L = emitter_luminance_[j];
+      exact += L * point;
+      polygon_error += L * (buffers.drawn[k] - point);
+    }
+    const bool polygon_ends =
+        k + 1 == emitters_.size() || mesh_.polygon[emitters_[k + 1]] != mesh_.polygon[j];
+    if (polygon_ends) {
+      error += std::abs(polygon_error);
+      polygon_error = 0.0;
+    }
+  }
+  const float up = float(error);
+  row_emitter_error_[i] =
+      double(up) >= error ? up : std::nextafter(up, std::numeric_limits<float>::infinity());
+  row_emitter_exact_[i] = float(exact);
+}
+
+std::optional<FormFactorMethod::EmitterSampling> HemicubeFormFactors::row_emitter_sampling(
+    size_t i) const {
+  return EmitterSampling{double(row_emitter_error_[i]), double(row_emitter_exact_[i])};
+}
+
+void HemicubeFormFactors::save_side_files(const std::string& matrix_file) const {
+  std::vector<float> data = row_emitter_error_;
+  data.insert(data.end(), row_emitter_exact_.begin(), row_emitter_exact_.end());
+  // Best effort: without it the matrix is rebuilt. Bound to the matrix file's header and key,
+  // with a checksum (formfactor/matrix/matrix_cache.h).
+  write_matrix_side_file(matrix_file, ".emitters", data.data(), data.size() * sizeof(float));
+}
+
+bool HemicubeFormFactors::load_side_files(const std::string& matrix_file, size_t n) const {
+  const auto bytes = read_matrix_side_file(matrix_file, ".emitters", 2 * n * sizeof(float));
+  if (!bytes || n != row_emitter_error_.size()) return false;
+  std::vector<float> data(2 * n);
+  std::memcpy(data.data(), bytes->data(), bytes->size());
+  for (float v : data)
+    if (!(v >= 0.0f && v < std::numeric_limits<float>::infinity()))
+      return false;  // not computed, negative or infinite: not a complete build's
+  row_emitter_error_.assign(data.begin(), data.begin() + std::ptrdiff_t(n));
+  row_emitter_exact_.assign(data.begin() + std::ptrdiff_t(n), data.end());
+  return true;
 }
 
 void HemicubeFormFactors::row_at(const Vec3& eye, const Vec3& normal, const Vec3& u,

@@ -91,6 +91,11 @@ class HemicubeFormFactors final : public FormFactorMethod {
   // pixel holds one element), so 1 + the weights' excess over 1 + rounding. No reciprocity is
   // stated: a row is one point's view, aliased by whole pixels.
   double stated_row_sum_error(std::string* basis = nullptr) const override;
+  // Emitters' sampling (form_factor_method.h): known for every row computed so far, kept
+  // beside a cached matrix in the ".emitters" side file (a matrix loaded without it is rebuilt).
+  std::optional<EmitterSampling> row_emitter_sampling(size_t i) const override;
+  void save_side_files(const std::string& matrix_file) const override;
+  bool load_side_files(const std::string& matrix_file, size_t n) const override;
   // row_at() with element's normal and frame (two levels' patch rows "centre").
   bool row_at_point(const Vec3& eye, size_t element, std::span<double> out,
                     RowCost& cost) const override {
@@ -133,6 +138,8 @@ class HemicubeFormFactors final : public FormFactorMethod {
   static void resolve_cracks(Buffers& buffers);
   // out[j] = sum of the weights of the pixels holding j.
   void accumulate(const Buffers& buffers, std::span<double> out) const;
+  // Row i's emitter sampling from the footprints rasterise() drew (buffers.drawn).
+  void record_emitter_sampling(size_t i, const Buffers& buffers) const;
 
   const Mesh& mesh_;
   HemicubeOptions options_;
@@ -141,6 +148,13 @@ class HemicubeFormFactors final : public FormFactorMethod {
   double epsilon_ = 0.0;       // distances below this count as zero (metres)
   double near_ = 0.0;          // near plane of every face (metres from the eye)
   double grid_ = 1.0;          // vertices in the hemicube's frame are snapped to this (metres)
+  // Emitting elements, grouped by polygon (emitters_), their mean emission over channels, and
+  // each element's slot in emitters_ (-1: not emitting).
+  std::vector<uint32_t> emitters_;
+  std::vector<double> emitter_luminance_;
+  std::vector<int32_t> emitter_slot_;
+  // Per row: row_emitter_sampling's error (rounded up) and exact value; NaN until computed.
+  mutable std::vector<float> row_emitter_error_, row_emitter_exact_;
 };
 
 }  // namespace radlab
