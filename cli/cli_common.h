@@ -21,7 +21,7 @@ struct SceneOptions {
 };
 
 struct FormFactorOptions {
-  std::string method = "raycast";
+  std::string method = kDefaultFormFactorMethod;
   std::vector<std::string> set;
   std::string precision = "float";
   std::string mode = "cached";

@@ -24,6 +24,10 @@
 
 namespace radlab {
 
+// The method used when none is named (`--ff`, ProblemSpec, experiment files): one place, so that
+// the CLI, the library and a sweep cannot disagree.
+inline constexpr const char* kDefaultFormFactorMethod = "raycast";
+
 // Builds a configured method on a scene and its mesh (both must outlive it).
 using FormFactorMethodBuilder =
     std::function<std::unique_ptr<FormFactorMethod>(const Scene& scene, const Mesh& mesh)>;

@@ -12,6 +12,7 @@
 #include "formfactor/form_factor_method.h"
 #include "formfactor/matrix/diagnostics.h"
 #include "formfactor/matrix/matrix.h"
+#include "formfactor/registry.h"
 #include "scene/mesh.h"
 #include "scene/scene_loader.h"
 #include "solvers/reference/reference.h"
@@ -27,7 +28,7 @@ struct ProblemSpec {
   std::string scene;           // builtin:NAME[:k=v,...] or a file
   bool keep_overlaps = false;  // coincident polygons as they are (scene/overlap.h)
   MeshOptions mesh;            // --subdiv / --element-size
-  std::string ff_method = "raycast";
+  std::string ff_method = kDefaultFormFactorMethod;
   std::vector<std::string> ff_set;  // --ff-set k=v
   Precision precision = Precision::kFloat;
   RowMode row_mode = RowMode::kCached;

@@ -3,6 +3,7 @@
 #include <tbb/global_control.h>
 #include <tbb/info.h>
 
+#include <cmath>
 #include <cstdio>
 
 #include "core/csv.h"
@@ -142,6 +143,12 @@ void write_reference_info(JsonWriter& json, const Problem& p) {
   json.field("spectral_radius_upper", r.spectral_radius_upper);
   json.field("refinements", r.refinements);
   json.field("seconds", r.seconds);
+  // With float storage: how far the solution of the float matrix the solvers read lies from B*
+  // at most, their floor (issue 35.6; solvers/reference/reference.h).
+  if (std::isfinite(r.float_storage_bound)) {
+    json.field("float_storage_bound_inf", r.float_storage_bound);
+    json.field("float_storage_bound_relative", r.float_storage_bound_relative);
+  }
   json.end_object();
 }
 

@@ -36,7 +36,7 @@ struct ExperimentSpec {
   std::vector<std::string> scenes;
   std::vector<MeshOptions> meshes;
   std::vector<SolverSweep> solvers;
-  std::string ff_method = "raycast";
+  std::string ff_method = kDefaultFormFactorMethod;
   std::map<std::string, std::string> ff_parameters;  // fixed method parameters (not the seed)
   std::vector<long long> seeds;  // form-factor seeds; empty: the method's default
   Precision precision = Precision::kFloat;

@@ -203,6 +203,25 @@ TEST(Cli, ToleranceNotReachedExitsFiveAfterWritingEverything) {
   EXPECT_NE(text.str().find("\"tolerance_reached\": false"), std::string::npos) << text.str();
 }
 
+// With float storage (the default) run.json states the floor the rounding of F sets for the
+// solvers beside the certificate of the double system (issue 35.6); with double storage there
+// is none to state.
+TEST(Cli, RunJsonStatesTheFloatStorageFloor) {
+  TempDir dir;
+  for (const char* precision : {"float", "double"}) {
+    const std::string trace = dir.file(std::string(precision) + ".csv");
+    Result r =
+        radlab("solve builtin:cube:rho=0.9 --subdiv 2 --solver jacobi --steps 3 --precision " +
+               std::string(precision) + " --trace " + trace);
+    ASSERT_EQ(r.code, 0) << r.output;
+    std::ifstream json(dir.file(std::string(precision) + ".run.json"));
+    std::stringstream text;
+    text << json.rdbuf();
+    const bool stated = text.str().find("\"float_storage_bound_inf\"") != std::string::npos;
+    EXPECT_EQ(stated, std::string(precision) == "float") << precision << "\n" << text.str();
+  }
+}
+
 // --sample-rows computes only the drawn rows; drawing every row checks the same sums as the
 // whole build (the same rows, computed on the fly instead of in a matrix).
 TEST(Cli, FormfactorsSampledRowsCheckWhatTheWholeBuildChecks) {

@@ -21,6 +21,7 @@
 #include <optional>
 
 #include "core/error.h"
+#include "experiments/problem/problem.h"
 #include "formfactor/matrix/matrix.h"
 #include "formfactor/matrix/matrix_cache.h"
 #include "formfactor/matrix/parallel_row.h"
@@ -299,6 +300,13 @@ TEST(MethodRegistry, DefaultsAreTheOptionsStructsAndEveryKeyIsListed) {
       EXPECT_EQ(read.at(p.name), p.default_value) << info.name << " " << p.name;
     }
   }
+}
+
+// The one default method name is a built-in method, and the CLI, the library's ProblemSpec and
+// an experiment file all start from it.
+TEST(MethodRegistry, TheDefaultMethodIsRegisteredAndUsedEverywhere) {
+  EXPECT_NO_THROW(form_factor_method_info(kDefaultFormFactorMethod));
+  EXPECT_EQ(ProblemSpec{}.ff_method, kDefaultFormFactorMethod);
 }
 
 TEST(MethodRegistry, RefusesListedButUnreadReadButUnlistedAndDuplicates) {
