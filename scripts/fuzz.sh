@@ -36,6 +36,10 @@ export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
 fork=(-fork=1 -ignore_crashes=1 -ignore_timeouts=1 -ignore_ooms=1)
 [ "${FUZZ_FORK:-1}" = 0 ] && fork=()
 for h in "${harnesses[@]}"; do
+  # Scenes get inputs above 1 MB, large enough for the quadratic cases (a tessellated slab of
+  # coplanar polygons, issue 36.3); experiment files and shards stay at 64 kB.
+  max_len=65536
+  case "$h" in obj | mgf) max_len="${FUZZ_MAX_LEN:-1100000}" ;; esac
   corpus="$build/corpus/$h"
   findings="$build/findings/$h"
   mkdir -p "$corpus" "$findings"
@@ -45,7 +49,7 @@ for h in "${harnesses[@]}"; do
   # unbounded memory (radlab's own limits refuse far smaller work first).
   "$build/fuzz/${h}_fuzz" "$corpus" "$root/fuzz/corpus/$h" -dict="$root/fuzz/radlab.dict" \
     -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2560 -malloc_limit_mb=1024 \
-    -max_len=65536 "${fork[@]}" \
+    -max_len="$max_len" "${fork[@]}" \
     -artifact_prefix="$findings/" >"$log" 2>&1 || true
   grep -E '^#[0-9]+' "$log" | tail -1 || true
   echo "fuzz: $h findings: $(find "$findings" -type f | wc -l) in $findings"
