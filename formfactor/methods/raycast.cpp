@@ -147,6 +147,122 @@ double RaycastFormFactors::unoccluded(size_t i, size_t j, RowCost& cost, double*
   return f;
 }
 
+namespace {
+
+// Where the adaptive rule starts on a pair integrated over i (the part `from` kept in front of
+// j's plane, its nearest corner `lowest` above that plane) towards j (`to`).
+struct AdaptiveStart {
+  int depth = 10;             // the rule's maximum levels
+  double gap = 0.0;           // the scale the integrand varies on near j (0: i reaches j's plane)
+  int split = 1;              // each fan triangle cut into split x split cells (>= 4: near pairs)
+  bool thin = false;          // i starts from strips across its length
+  double longest = 0.0;       // i's longest edge,
+  size_t longest_edge = 0;    // from corner longest_edge to the next
+  double strip_length = 0.0;  // a strip's length along it
+};
+
+AdaptiveStart plan_adaptive_start(const std::vector<Vec3>& from, const Vec3& normal_i,
+                                  const std::vector<Vec3>& to, const Vec3& normal_j,
+                                  double diameter, double lowest) {
+  AdaptiveStart start;
+  // Levels: the integrand of a pair whose nearest corner is `lowest` above j's plane varies on
+  // that scale, so cells must get down to it: log2(diameter / lowest) levels and 3 more for the
+  // rule's own accuracy, at least 10 (the touching case, where the global budget decides), at
+  // most 30. With a fixed 10 a pair 1 mm apart stopped at cells of 1 mm, 2.4e-3 off for a
+  // tolerance of 1e-4 (tests/formfactor/physical_validity_test.cpp).
+  // A thin i (a sliver: width = 2 area / longest edge far below its diameter) needs the same
+  // number of levels for its width: halving cells along its length leaves them as wide as i
+  // until they are as short as i is wide, and where i touches j near its short edge the
+  // integrand changes on that scale. A floor sliver of aspect 1e-4 touching a wall's corner
+  // stopped at 10 levels, cells of 1.2e-4 for a width of 5e-5, and converged to 5.9e-4 below
+  // the value (the same at tolerance 1e-7; tests/formfactor/methods/raycast_reciprocity_test.cpp).
+  for (size_t k = 0; k < from.size(); ++k) {
+    const double length = glm::distance(from[k], from[(k + 1) % from.size()]);
+    if (length >= start.longest)  // the last of equals, as before
+      start.longest = length, start.longest_edge = k;
+  }
+  const double width = start.longest > 0.0 ? 2.0 * geometry::area(from) / start.longest : diameter;
+  const auto levels_for = [&](double scale) {
+    return scale > 0.0
+               ? std::clamp(int(std::ceil(std::log2(std::max(diameter / scale, 1.0)))) + 3, 10, 30)
+               : 10;
+  };
+  start.depth = std::max(levels_for(lowest), levels_for(width));
+  // A pair much closer than its size (lowest < diameter / 64): the integrand falls off within
+  // ~lowest of j's outline, a layer the adaptive rule's 3x3 points on large cells never land in,
+  // so it converges falsely (1 mm apart: 1.9e-3 off). Start it from cells of ~16 lowest (at most
+  // 64 x 64 per fan triangle), where the layer shows in the cells' differences.
+  // Pairs where i reaches j's plane (lowest 0: touching, or i standing on j's plane beside j)
+  // start from 4 x 4 cells per fan triangle too: from one cell the rule's first refinement can
+  // agree with it by chance and stop. A unit wall and the floor strip that stops 1 mm short of it
+  // (trust_test's corner cube) came out 2.4e-3 too high for a tolerance of 1e-4 (the same at
+  // 1e-3: the first estimate was accepted); from 4 x 4 cells it is within 4e-6
+  // (RaycastQuadrature.TouchingPairMeetsTheTolerance).
+  // (A start graded towards j's outline under one global rule took a third of the work on
+  // examp1.mgf but was up to 2.6e-4 off for slivers along a wall, against a tolerance of 1e-4:
+  // docs/formfactors.md, "Tried, not kept".)
+  // The layer's thickness is i's distance from j, not its height above j's plane: near-coplanar
+  // elements side by side (examp1.mgf's reflector strips, 0.013 rad apart and 1.2 cm from each
+  // other, 7.5e-5 m above each other's planes) have an integrand that varies on the scale of
+  // the 1.2 cm, and split on the 7.5e-5 m took 5.6e6 evaluations for an entry of 1e-5.
+  start.gap = lowest > 0.0 ? std::max(lowest, polygon_distance(from, normal_i, to, normal_j)) : 0.0;
+  start.split = start.gap > 0.0 ? int(std::min(64.0, std::ceil(diameter / (16.0 * start.gap)))) : 4;
+  // A thin i beside a j with short edges: the adaptive rule does not trust a cell within its own
+  // size of j until the cell is no longer than j's shortest edge (polygon_integral.cpp), and it
+  // halves both sides of a cell, so cells of a thin i stay as thin as i. A 5 mm x 1.95 m face of
+  // a window putty prism (office1/graz.mgf) against its neighbouring face needed nine levels,
+  // 2.6e5 cells, before its shared edge was refined at all, and stopped at the work cap with a
+  // stated excess of 0.27. Such an i starts from strips across its length about as long as the
+  // larger of its width and j's shortest edge (at most kMaxStrips).
+  double to_shortest = 1e300;
+  for (size_t k = 0; k < to.size(); ++k)
+    to_shortest = std::min(to_shortest, glm::distance(to[k], to[(k + 1) % to.size()]));
+  start.strip_length = std::max(width, to_shortest);
+  start.thin = start.longest > kThinStart * start.strip_length;
+  return start;
+}
+
+// The starting cells of a near, touching or thin pair as triangles (three corners each): i's fan
+// triangles, or its strips across the longest edge, each cut into parts x parts.
+void starting_cells(const std::vector<Vec3>& from, const AdaptiveStart& start,
+                    std::vector<Vec3>& pieces) {
+  thread_local std::vector<Vec3> base;
+  base.clear();
+  pieces.clear();
+  int parts = start.split;
+  if (start.thin) {
+    const size_t e = start.longest_edge;
+    const Vec3 axis = glm::normalize(from[(e + 1) % from.size()] - from[e]);
+    append_strip_triangles(
+        from, axis,
+        int(std::min(double(kMaxStrips), std::ceil(start.longest / start.strip_length))), base);
+    // A close pair's strips are cut further towards cells of ~16 gaps, within kMaxPieces.
+    const double wanted =
+        start.gap > 0.0 ? std::ceil(start.strip_length / (16.0 * start.gap)) : 1.0;
+    const double room = std::floor(std::sqrt(double(kMaxPieces) / double(base.size() / 3)));
+    parts = int(std::clamp(std::min(wanted, room), 1.0, 64.0));
+  } else {
+    for (size_t t = 1; t + 1 < from.size(); ++t)
+      base.insert(base.end(), {from[0], from[t], from[t + 1]});
+  }
+  for (size_t t = 0; t + 2 < base.size(); t += 3) {
+    const Vec3 o = base[t], u = (base[t + 1] - o) / double(parts),
+               v = (base[t + 2] - o) / double(parts);
+    for (int p = 0; p < parts; ++p)
+      for (int q = 0; p + q < parts; ++q) {
+        pieces.insert(pieces.end(),
+                      {o + double(p) * u + double(q) * v, o + double(p + 1) * u + double(q) * v,
+                       o + double(p) * u + double(q + 1) * v});
+        if (p + q + 1 < parts)
+          pieces.insert(pieces.end(), {o + double(p + 1) * u + double(q) * v,
+                                       o + double(p + 1) * u + double(q + 1) * v,
+                                       o + double(p) * u + double(q + 1) * v});
+      }
+  }
+}
+
+}  // namespace
+
 double RaycastFormFactors::unoccluded_over(size_t i, size_t j, RowCost& cost, double* error) const {
   *error = 0.0;
   thread_local std::vector<Vec3> from, to;
@@ -169,64 +285,8 @@ double RaycastFormFactors::unoccluded_over(size_t i, size_t j, RowCost& cost, do
   // The floor is 1e-14 of F_ij, the result after scaling by `kept`: a sliver of i kept in front
   // of j's plane (a corner touching it) then stops at once instead of refining cells whose whole
   // contribution is below 1e-14.
-  // Levels: the integrand of a pair whose nearest corner is `lowest` above j's plane varies on
-  // that scale, so cells must get down to it: log2(diameter / lowest) levels and 3 more for the
-  // rule's own accuracy, at least 10 (the touching case, where the global budget decides), at
-  // most 30. With a fixed 10 a pair 1 mm apart stopped at cells of 1 mm, 2.4e-3 off for a
-  // tolerance of 1e-4 (tests/formfactor/physical_validity_test.cpp).
-  const double diameter = 2.0 * radius_[i];
-  // A thin i (a sliver: width = 2 area / longest edge far below its diameter) needs the same
-  // number of levels for its width: halving cells along its length leaves them as wide as i
-  // until they are as short as i is wide, and where i touches j near its short edge the
-  // integrand changes on that scale. A floor sliver of aspect 1e-4 touching a wall's corner
-  // stopped at 10 levels, cells of 1.2e-4 for a width of 5e-5, and converged to 5.9e-4 below
-  // the value (the same at tolerance 1e-7; tests/formfactor/methods/raycast_reciprocity_test.cpp).
-  double longest = 0.0;
-  size_t longest_edge = 0;  // from corner longest_edge to the next
-  for (size_t k = 0; k < from.size(); ++k) {
-    const double length = glm::distance(from[k], from[(k + 1) % from.size()]);
-    if (length >= longest) longest = length, longest_edge = k;  // the last of equals, as before
-  }
-  const double width = longest > 0.0 ? 2.0 * geometry::area(from) / longest : diameter;
-  const auto levels_for = [&](double scale) {
-    return scale > 0.0
-               ? std::clamp(int(std::ceil(std::log2(std::max(diameter / scale, 1.0)))) + 3, 10, 30)
-               : 10;
-  };
-  const int depth = std::max(levels_for(lowest), levels_for(width));
-  // A pair much closer than its size (lowest < diameter / 64): the integrand falls off within
-  // ~lowest of j's outline, a layer the adaptive rule's 3x3 points on large cells never land in,
-  // so it converges falsely (1 mm apart: 1.9e-3 off). Start it from cells of ~16 lowest (at most
-  // 64 x 64 per fan triangle), where the layer shows in the cells' differences.
-  // Pairs where i reaches j's plane (lowest 0: touching, or i standing on j's plane beside j)
-  // start from 4 x 4 cells per fan triangle too: from one cell the rule's first refinement can
-  // agree with it by chance and stop. A unit wall and the floor strip that stops 1 mm short of it
-  // (trust_test's corner cube) came out 2.4e-3 too high for a tolerance of 1e-4 (the same at
-  // 1e-3: the first estimate was accepted); from 4 x 4 cells it is within 4e-6
-  // (RaycastQuadrature.TouchingPairMeetsTheTolerance).
-  // (A start graded towards j's outline under one global rule took a third of the work on
-  // examp1.mgf but was up to 2.6e-4 off for slivers along a wall, against a tolerance of 1e-4:
-  // docs/formfactors.md, "Tried, not kept".)
-  // The layer's thickness is i's distance from j, not its height above j's plane: near-coplanar
-  // elements side by side (examp1.mgf's reflector strips, 0.013 rad apart and 1.2 cm from each
-  // other, 7.5e-5 m above each other's planes) have an integrand that varies on the scale of
-  // the 1.2 cm, and split on the 7.5e-5 m took 5.6e6 evaluations for an entry of 1e-5.
-  const double gap =
-      lowest > 0.0 ? std::max(lowest, polygon_distance(from, mesh_.normal[i], to, mesh_.normal[j]))
-                   : 0.0;
-  const int split = gap > 0.0 ? int(std::min(64.0, std::ceil(diameter / (16.0 * gap)))) : 4;
-  // A thin i beside a j with short edges: the adaptive rule does not trust a cell within its own
-  // size of j until the cell is no longer than j's shortest edge (polygon_integral.cpp), and it
-  // halves both sides of a cell, so cells of a thin i stay as thin as i. A 5 mm x 1.95 m face of
-  // a window putty prism (office1/graz.mgf) against its neighbouring face needed nine levels,
-  // 2.6e5 cells, before its shared edge was refined at all, and stopped at the work cap with a
-  // stated excess of 0.27. Such an i starts from strips across its length about as long as the
-  // larger of its width and j's shortest edge (at most kMaxStrips).
-  double to_shortest = 1e300;
-  for (size_t k = 0; k < to.size(); ++k)
-    to_shortest = std::min(to_shortest, glm::distance(to[k], to[(k + 1) % to.size()]));
-  const double strip_length = std::max(width, to_shortest);
-  const bool thin = longest > kThinStart * strip_length;
+  const AdaptiveStart start =
+      plan_adaptive_start(from, mesh_.normal[i], to, mesh_.normal[j], 2.0 * radius_[i], lowest);
   double f = 0.0, estimated = 0.0;
   // Near and touching pairs by the contour integral (contour_integral.h): one-dimensional, ~1e3
   // points where the area rule's many starting cells below take ~1e5 (examp1.mgf:
@@ -240,54 +300,24 @@ double RaycastFormFactors::unoccluded_over(size_t i, size_t j, RowCost& cost, do
     return c.converged;
   };
   ContourIntegral c;
-  if (split >= 4 || thin) {
+  if (start.split >= 4 || start.thin) {
     if (contour(c)) {
       *error = c.error;
       return c.form_factor;
     }
     // The pieces are the starting cells of one adaptive integral: one error budget (tolerance *
     // F^u_ij over the whole pair) and one work cap, as for a pair started from one cell.
-    thread_local std::vector<Vec3> base, pieces;
-    base.clear();
-    pieces.clear();
-    int parts = split;  // each base triangle cut into parts x parts
-    if (thin) {
-      // the strips cut across i's longest edge
-      const Vec3 axis = glm::normalize(from[(longest_edge + 1) % from.size()] - from[longest_edge]);
-      append_strip_triangles(
-          from, axis, int(std::min(double(kMaxStrips), std::ceil(longest / strip_length))), base);
-      // A close pair's strips are cut further towards cells of ~16 gaps, within kMaxPieces.
-      const double wanted = gap > 0.0 ? std::ceil(strip_length / (16.0 * gap)) : 1.0;
-      const double room = std::floor(std::sqrt(double(kMaxPieces) / double(base.size() / 3)));
-      parts = int(std::clamp(std::min(wanted, room), 1.0, 64.0));
-    } else {
-      for (size_t t = 1; t + 1 < from.size(); ++t)
-        base.insert(base.end(), {from[0], from[t], from[t + 1]});
-    }
-    for (size_t t = 0; t + 2 < base.size(); t += 3) {
-      const Vec3 o = base[t], u = (base[t + 1] - o) / double(parts),
-                 v = (base[t + 2] - o) / double(parts);
-      for (int p = 0; p < parts; ++p)
-        for (int q = 0; p + q < parts; ++q) {
-          pieces.insert(pieces.end(),
-                        {o + double(p) * u + double(q) * v, o + double(p + 1) * u + double(q) * v,
-                         o + double(p) * u + double(q + 1) * v});
-          if (p + q + 1 < parts)
-            pieces.insert(pieces.end(), {o + double(p + 1) * u + double(q) * v,
-                                         o + double(p + 1) * u + double(q + 1) * v,
-                                         o + double(p) * u + double(q + 1) * v});
-        }
-    }
     // Pieces of a close or touching pair are each split once first (their coarse rules can
     // agree by chance); a thin i's strips farther away need not be.
-    f = polygon_integral_adaptive_triangles(pieces, mesh_.normal[i], b,
-                                            kSplitTolerance * options_.tolerance, 1e-14 / kept,
-                                            depth, &evaluations, kAdaptiveEvaluations, &estimated,
-                                            /*split_every_root=*/split >= 4);
+    thread_local std::vector<Vec3> pieces;
+    starting_cells(from, start, pieces);
+    f = polygon_integral_adaptive_triangles(
+        pieces, mesh_.normal[i], b, kSplitTolerance * options_.tolerance, 1e-14 / kept, start.depth,
+        &evaluations, kAdaptiveEvaluations, &estimated, /*split_every_root=*/start.split >= 4);
   } else {
     // A pair started from one cell: the area rule first, while it is cheap (it finishes within
     // kAreaRuleFirst on most such pairs); the contour integral where it does not.
-    f = polygon_integral_adaptive(a, b, nullptr, options_.tolerance, 1e-14 / kept, depth,
+    f = polygon_integral_adaptive(a, b, nullptr, options_.tolerance, 1e-14 / kept, start.depth,
                                   &evaluations, kAreaRuleFirst, &estimated);
     if (evaluations >= kAreaRuleFirst) {
       cost.kernel_evaluations += uint64_t(evaluations);
@@ -296,7 +326,7 @@ double RaycastFormFactors::unoccluded_over(size_t i, size_t j, RowCost& cost, do
         return c.form_factor;
       }
       evaluations = 0;
-      f = polygon_integral_adaptive(a, b, nullptr, options_.tolerance, 1e-14 / kept, depth,
+      f = polygon_integral_adaptive(a, b, nullptr, options_.tolerance, 1e-14 / kept, start.depth,
                                     &evaluations, kAdaptiveEvaluations, &estimated);
     }
   }
