@@ -115,26 +115,32 @@ std::string describe(const Scene& scene, const Polygon& p) {
   return p.origin + " ('" + scene.materials[size_t(p.material)].name + "')";
 }
 
-}  // namespace
+// The repair, polygon by polygon in the scene's order: each is compared with the earlier ones it
+// may coincide with (find_candidates), each coincident pair is classified and settled
+// (settle_pair), what is left of the polygon is placed, and the earlier sides of contacts lose
+// their overlaps once every polygon is placed (cut_contacts).
+class CoincidenceRepair {
+ public:
+  CoincidenceRepair(Scene& scene, bool keep, double diagonal)
+      : scene_(scene),
+        keep_(keep),
+        diagonal_(diagonal),
+        tolerance_(kCoincidentTolerance * diagonal),
+        offset_step_(1e-4 * diagonal) {
+    out_.reserve(scene.polygons.size());
+  }
 
-OverlapReport resolve_coincident_polygons(Scene& scene, bool keep) {
-  OverlapReport report;
-  Vec3 lo(1e300), hi(-1e300);
-  for (const Polygon& p : scene.polygons)
-    for (const Vec3& v : p.vertices) lo = glm::min(lo, v), hi = glm::max(hi, v);
-  const double diagonal = glm::length(hi - lo);
-  if (!(diagonal > 0)) return report;
-  const double tolerance = kCoincidentTolerance * diagonal;
+  OverlapReport run() {
+    for (Polygon& polygon : scene_.polygons) add(polygon);
+    if (!contact_cuts_.empty()) cut_contacts();
+    scene_.polygons = std::move(out_);
+    return std::move(report_);
+  }
+
+ private:
   // Buckets: the undirected normal quantised to 1e-3 and the offset to 1e-4 of the diagonal;
-  // coincident polygons land in the same or a neighbouring bucket. Candidates are the earlier
-  // polygons in those buckets whose bounding boxes, widened by twice the coincidence tolerance
-  // (b is projected onto a's plane by at most the tolerance), meet the polygon's own: no other
-  // can overlap it. They are visited in the order of the all-pairs loop this replaced (bucket
-  // offset, then placement), so the repair's results are the same.
-  const double normal_step = 1e-3, offset_step = 1e-4 * diagonal;
-  PlacedIndex placed;
-  std::vector<BucketKey> keys;  // of each polygon in `out`
-  auto key_of = [&](const Plane& plane) {
+  // coincident polygons land in the same or a neighbouring bucket.
+  BucketKey key_of(const Plane& plane) const {
     Vec3 n = plane.normal;
     double d = plane.offset;
     // Undirected: the largest component positive, so back-to-back polygons share buckets.
@@ -142,148 +148,181 @@ OverlapReport resolve_coincident_polygons(Scene& scene, bool keep) {
                          ? 0
                          : (std::abs(n.y) >= std::abs(n.z) ? 1 : 2);
     if (n[axis] < 0) n = -n, d = -d;
-    return BucketKey{int64_t(std::floor(n.x / normal_step)), int64_t(std::floor(n.y / normal_step)),
-                     int64_t(std::floor(n.z / normal_step)), int64_t(std::floor(d / offset_step))};
-  };
+    return BucketKey{int64_t(std::floor(n.x / kNormalStep)), int64_t(std::floor(n.y / kNormalStep)),
+                     int64_t(std::floor(n.z / kNormalStep)), int64_t(std::floor(d / offset_step_))};
+  }
 
-  std::vector<Polygon> out;
-  std::vector<Plane> planes;
-  // Earlier polygons (indices into out) and the later polygons in contact with them.
-  std::unordered_map<uint32_t, std::vector<std::vector<Vec3>>> contact_cuts;
-  out.reserve(scene.polygons.size());
-  auto coincident = [&](const Polygon& a, const Plane& pa, const Polygon& b, const Plane& pb) {
+  bool coincident(const Polygon& a, const Plane& pa, const Polygon& b, const Plane& pb) const {
     if (std::abs(glm::dot(pa.normal, pb.normal)) < 1.0 - 1e-9) return false;
     for (const Vec3& v : b.vertices)
-      if (std::abs(glm::dot(v, pa.normal) - pa.offset) > tolerance) return false;
+      if (std::abs(glm::dot(v, pa.normal) - pa.offset) > tolerance_) return false;
     for (const Vec3& v : a.vertices)
-      if (std::abs(glm::dot(v, pb.normal) - pb.offset) > tolerance) return false;
+      if (std::abs(glm::dot(v, pb.normal) - pb.offset) > tolerance_) return false;
     return true;
-  };
-  char buffer[160];
-  std::vector<std::pair<Box, uint32_t>> hits;
-  std::vector<std::pair<int64_t, uint32_t>> candidates;  // (bucket offset, polygon in out)
-  for (Polygon& polygon : scene.polygons) {
+  }
+
+  // Candidates are the earlier polygons in the same or neighbouring buckets whose bounding boxes,
+  // widened by twice the coincidence tolerance (b is projected onto a's plane by at most the
+  // tolerance), meet the polygon's own: no other can overlap it. They are visited in the order
+  // of the all-pairs loop this replaced (bucket offset, then placement), so the repair's results
+  // are the same.
+  void find_candidates(const Polygon& polygon, const BucketKey& key) {
+    hits_.clear();
+    placed_.query(bgi::intersects(bounds(polygon.vertices, 2.0 * tolerance_)),
+                  std::back_inserter(hits_));
+    candidates_.clear();
+    for (const auto& [box, e] : hits_) {
+      const BucketKey& other = keys_[e];
+      const int64_t dx = other.nx - key.nx, dy = other.ny - key.ny, dz = other.nz - key.nz,
+                    dd = other.d - key.d;
+      if (std::abs(dx) > 1 || std::abs(dy) > 1 || std::abs(dz) > 1 || std::abs(dd) > 1) continue;
+      candidates_.emplace_back(((dx + 1) * 27 + (dy + 1) * 9 + (dz + 1) * 3 + (dd + 1)), e);
+    }
+    std::sort(candidates_.begin(), candidates_.end());
+  }
+
+  void add(Polygon& polygon) {
     const Vec3 n = geometry::unit_normal(polygon.vertices);
     const Plane plane{n, glm::dot(n, geometry::centroid(polygon.vertices))};
     const BucketKey key = key_of(plane);
     const double own_area = geometry::area(polygon.vertices);
     std::vector<std::vector<Vec3>> pieces{polygon.vertices};
     bool cut = false;
-    hits.clear();
-    placed.query(bgi::intersects(bounds(polygon.vertices, 2.0 * tolerance)),
-                 std::back_inserter(hits));
-    candidates.clear();
-    for (const auto& [box, e] : hits) {
-      const BucketKey& other = keys[e];
-      const int64_t dx = other.nx - key.nx, dy = other.ny - key.ny, dz = other.nz - key.nz,
-                    dd = other.d - key.d;
-      if (std::abs(dx) > 1 || std::abs(dy) > 1 || std::abs(dz) > 1 || std::abs(dd) > 1) continue;
-      candidates.emplace_back(((dx + 1) * 27 + (dy + 1) * 9 + (dz + 1) * 3 + (dd + 1)), e);
-    }
-    std::sort(candidates.begin(), candidates.end());
-    for (const auto& [offset, e] : candidates) {
-      const Polygon& earlier = out[e];
-      if (!coincident(earlier, planes[e], polygon, plane)) continue;
-      const double shared = geometry::overlap_area(earlier.vertices, polygon.vertices);
-      if (!(shared > 1e-6 * std::min(own_area, geometry::area(earlier.vertices))))
-        continue;  // touching along an edge or at a corner
-      const bool same = glm::dot(planes[e].normal, plane.normal) > 0;
-      std::snprintf(buffer, sizeof buffer, " overlap by %.4g m^2 (%.3g%% of the later)", shared,
-                    100.0 * shared / own_area);
-      // Opposite normals: the later polygon's distance in front of the earlier one
-      // decides. In front (face to face, each in front of the other) by more than
-      // rounding: a contact, such as a window frame resting on a sill; behind: a
-      // two-sided sheet; within rounding of each other the two cannot be told apart and
-      // the pair is kept as a sheet.
-      const double gap =
-          glm::dot(geometry::centroid(polygon.vertices) - geometry::centroid(earlier.vertices),
-                   planes[e].normal);
-      const bool contact = !same && gap > kContactGap * diagonal;
-      if (!same)
-        std::snprintf(buffer + std::strlen(buffer), sizeof buffer - std::strlen(buffer),
-                      ", %.3g m apart", gap);
-      std::string what = describe(scene, earlier) + " and " + describe(scene, polygon) +
-                         ": coincident " +
-                         (same      ? "same-facing"
-                          : contact ? "face-to-face"
-                                    : "back-to-back") +
-                         " polygons" + buffer;
-      if (!same && !contact) {
-        ++report.back_to_back;
-        report.warnings.push_back(what + (gap > 0 ? "; kept (within rounding: a two-sided "
-                                                    "sheet or a contact)"
-                                                  : "; kept (a two-sided sheet)"));
-        continue;
-      }
-      if (contact) {
-        ++report.contacts;
-        report.contact_area += shared;
-        if (keep) {
-          report.warnings.push_back(what + "; kept as they are (--keep-overlaps)");
-          continue;
-        }
-        // Neither side of a contact sees anything but the other: light neither reaches
-        // it nor leaves it, and the rays cannot resolve a gap this small (they would see
-        // past the other polygon). Both lose the overlap; the earlier one below, once
-        // every polygon is placed.
-        contact_cuts[e].push_back(polygon.vertices);
-        subtract_from_each(pieces, earlier.vertices);
-        cut = true;
-        report.warnings.push_back(what + "; a contact: the overlap removed from both");
-        continue;
-      }
-      ++report.same_facing;
-      report.overlap_area += shared;
-      if (keep) {
-        report.warnings.push_back(what + "; kept as they are (--keep-overlaps)");
-        continue;
-      }
-      subtract_from_each(pieces, earlier.vertices);
-      cut = true;
-      report.warnings.push_back(
-          what + (pieces.empty() ? "; the later one dropped (wholly covered)"
-                                 : "; the later one cut to the " + std::to_string(pieces.size()) +
-                                       " convex piece(s) outside the earlier"));
-    }
+    find_candidates(polygon, key);
+    for (const auto& [offset, e] : candidates_)
+      cut = settle_pair(e, polygon, plane, own_area, pieces) || cut;
     if (pieces.empty()) {
-      ++report.dropped;
-      report.removed_area += own_area;
-      continue;
+      ++report_.dropped;
+      report_.removed_area += own_area;
+      return;
     }
     if (cut) {
-      ++report.clipped;
+      ++report_.clipped;
       double left = 0.0;
       for (const auto& piece : pieces) left += geometry::area(piece);
-      report.removed_area += own_area - left;
+      report_.removed_area += own_area - left;
     }
     for (auto& piece : pieces) {
-      placed.insert({bounds(piece, 0.0), uint32_t(out.size())});
-      keys.push_back(key);
-      planes.push_back(plane);
-      out.push_back(Polygon{std::move(piece), polygon.material, polygon.origin});
+      placed_.insert({bounds(piece, 0.0), uint32_t(out_.size())});
+      keys_.push_back(key);
+      planes_.push_back(plane);
+      out_.push_back(Polygon{std::move(piece), polygon.material, polygon.origin});
     }
   }
-  if (!contact_cuts.empty()) {
+
+  // The earlier polygon out_[e] against the later `polygon` (its plane, area and what is left
+  // of it so far, `pieces`): nothing when they do not overlap; else counted, warned and, unless
+  // kept, cut. Returns whether `pieces` was cut.
+  bool settle_pair(uint32_t e, const Polygon& polygon, const Plane& plane, double own_area,
+                   std::vector<std::vector<Vec3>>& pieces) {
+    const Polygon& earlier = out_[e];
+    if (!coincident(earlier, planes_[e], polygon, plane)) return false;
+    const double shared = geometry::overlap_area(earlier.vertices, polygon.vertices);
+    if (!(shared > 1e-6 * std::min(own_area, geometry::area(earlier.vertices))))
+      return false;  // touching along an edge or at a corner
+    const bool same = glm::dot(planes_[e].normal, plane.normal) > 0;
+    char buffer[160];
+    std::snprintf(buffer, sizeof buffer, " overlap by %.4g m^2 (%.3g%% of the later)", shared,
+                  100.0 * shared / own_area);
+    // Opposite normals: the later polygon's distance in front of the earlier one decides. In
+    // front (face to face, each in front of the other) by more than rounding: a contact, such as
+    // a window frame resting on a sill; behind: a two-sided sheet; within rounding of each other
+    // the two cannot be told apart and the pair is kept as a sheet.
+    const double gap =
+        glm::dot(geometry::centroid(polygon.vertices) - geometry::centroid(earlier.vertices),
+                 planes_[e].normal);
+    const bool contact = !same && gap > kContactGap * diagonal_;
+    if (!same)
+      std::snprintf(buffer + std::strlen(buffer), sizeof buffer - std::strlen(buffer),
+                    ", %.3g m apart", gap);
+    const std::string what = describe(scene_, earlier) + " and " + describe(scene_, polygon) +
+                             ": coincident " +
+                             (same      ? "same-facing"
+                              : contact ? "face-to-face"
+                                        : "back-to-back") +
+                             " polygons" + buffer;
+    if (!same && !contact) {
+      ++report_.back_to_back;
+      report_.warnings.push_back(what + (gap > 0 ? "; kept (within rounding: a two-sided "
+                                                   "sheet or a contact)"
+                                                 : "; kept (a two-sided sheet)"));
+      return false;
+    }
+    if (contact) {
+      ++report_.contacts;
+      report_.contact_area += shared;
+      if (keep_) {
+        report_.warnings.push_back(what + "; kept as they are (--keep-overlaps)");
+        return false;
+      }
+      // Neither side of a contact sees anything but the other: light neither reaches it nor
+      // leaves it, and the rays cannot resolve a gap this small (they would see past the other
+      // polygon). Both lose the overlap; the earlier one in cut_contacts, once every polygon is
+      // placed.
+      contact_cuts_[e].push_back(polygon.vertices);
+      subtract_from_each(pieces, earlier.vertices);
+      report_.warnings.push_back(what + "; a contact: the overlap removed from both");
+      return true;
+    }
+    ++report_.same_facing;
+    report_.overlap_area += shared;
+    if (keep_) {
+      report_.warnings.push_back(what + "; kept as they are (--keep-overlaps)");
+      return false;
+    }
+    subtract_from_each(pieces, earlier.vertices);
+    report_.warnings.push_back(
+        what + (pieces.empty() ? "; the later one dropped (wholly covered)"
+                               : "; the later one cut to the " + std::to_string(pieces.size()) +
+                                     " convex piece(s) outside the earlier"));
+    return true;
+  }
+
+  // The earlier sides of contacts lose the overlaps with every later polygon they touch.
+  void cut_contacts() {
     std::vector<Polygon> cut_out;
-    cut_out.reserve(out.size());
-    for (uint32_t e = 0; e < out.size(); ++e) {
-      const auto found = contact_cuts.find(e);
-      if (found == contact_cuts.end()) {
-        cut_out.push_back(std::move(out[e]));
+    cut_out.reserve(out_.size());
+    for (uint32_t e = 0; e < out_.size(); ++e) {
+      const auto found = contact_cuts_.find(e);
+      if (found == contact_cuts_.end()) {
+        cut_out.push_back(std::move(out_[e]));
         continue;
       }
-      std::vector<std::vector<Vec3>> pieces{out[e].vertices};
+      std::vector<std::vector<Vec3>> pieces{out_[e].vertices};
       for (const std::vector<Vec3>& later : found->second) subtract_from_each(pieces, later);
-      ++(pieces.empty() ? report.dropped : report.clipped);
-      report.removed_area += geometry::area(out[e].vertices);
-      for (const auto& piece : pieces) report.removed_area -= geometry::area(piece);
+      ++(pieces.empty() ? report_.dropped : report_.clipped);
+      report_.removed_area += geometry::area(out_[e].vertices);
+      for (const auto& piece : pieces) report_.removed_area -= geometry::area(piece);
       for (auto& piece : pieces)
-        cut_out.push_back(Polygon{std::move(piece), out[e].material, out[e].origin});
+        cut_out.push_back(Polygon{std::move(piece), out_[e].material, out_[e].origin});
     }
-    out = std::move(cut_out);
+    out_ = std::move(cut_out);
   }
-  scene.polygons = std::move(out);
-  return report;
+
+  static constexpr double kNormalStep = 1e-3;
+  Scene& scene_;
+  const bool keep_;
+  const double diagonal_, tolerance_, offset_step_;
+  OverlapReport report_;
+  PlacedIndex placed_;           // the placed polygons' boxes
+  std::vector<BucketKey> keys_;  // of each polygon in out_
+  std::vector<Plane> planes_;    // of each polygon in out_
+  std::vector<Polygon> out_;     // the polygons placed so far
+  // Earlier polygons (indices into out_) and the later polygons in contact with them.
+  std::unordered_map<uint32_t, std::vector<std::vector<Vec3>>> contact_cuts_;
+  std::vector<std::pair<Box, uint32_t>> hits_;
+  std::vector<std::pair<int64_t, uint32_t>> candidates_;  // (bucket offset, polygon in out_)
+};
+
+}  // namespace
+
+OverlapReport resolve_coincident_polygons(Scene& scene, bool keep) {
+  Vec3 lo(1e300), hi(-1e300);
+  for (const Polygon& p : scene.polygons)
+    for (const Vec3& v : p.vertices) lo = glm::min(lo, v), hi = glm::max(hi, v);
+  const double diagonal = glm::length(hi - lo);
+  if (!(diagonal > 0)) return {};
+  return CoincidenceRepair(scene, keep, diagonal).run();
 }
 
 }  // namespace radlab
