@@ -35,6 +35,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <glm/geometric.hpp>
 #include <glm/vec2.hpp>
 #include <memory>
 #include <string>
@@ -130,6 +131,18 @@ class Visibility {
   void trace_skipped_ends(const SegmentPacket& segments, bool* blocked, size_t from,
                           size_t to) const;
   void compute_end_neighbours();
+  // Its steps, per element e: e's frame and region (end_region, which also returns the region's
+  // axis-aligned box), the elements of other polygons whose boxes reach into it
+  // (end_candidates), the cells a candidate marks (mark_end_cells: returns the blocks it marked
+  // in), and the lists e keeps within the budget (keep_end_lists).
+  struct EndReach;
+  struct Neighbour;
+  EndReach end_region(size_t e, double reach, double margin, Box& region) const;
+  void end_candidates(size_t e, const Box& region, const std::vector<Box>& boxes, double margin,
+                      std::vector<Neighbour>& candidates) const;
+  uint64_t mark_end_cells(const EndReach& r, const Neighbour& g, double reach);
+  void keep_end_lists(size_t e, std::vector<uint64_t>& block_masks, size_t budget,
+                      size_t& list_bytes);
   static constexpr uint8_t kPieceClear = 0, kPieceMarked = 1, kPieceTraced = 2;
   void classify_pieces(const SegmentPacket& segments, size_t end, bool at_origin, uint8_t* state,
                        uint32_t* block) const;
@@ -165,6 +178,13 @@ class Visibility {
     glm::dvec2 scale{0.0};  // cells per unit length in u and v
     size_t first_row = 0;
     bool listed = true;  // false: over the list budget, pieces in marked cells are traced
+    // x in the frame: (u, v, h).
+    Vec3 to_frame(const Vec3& x) const {
+      const Vec3 p = x - origin;
+      return Vec3(glm::dot(p, across), glm::dot(p, along), glm::dot(p, normal));
+    }
+    // World coordinate `axis` as a + u b + v c + h d: (b, c, d).
+    Vec3 coefficients(int axis) const { return Vec3(across[axis], along[axis], normal[axis]); }
   };
   struct Neighbour {
     Vec3 lo, hi, normal;
