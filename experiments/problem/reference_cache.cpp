@@ -39,13 +39,6 @@ void append(std::string& out, const T* data, size_t count) {
 
 }  // namespace
 
-std::string ReferenceCacheKey::file_name() const {
-  char name[48];
-  std::snprintf(name, sizeof name, "%016llx%016llx.ref", static_cast<unsigned long long>(hash[0]),
-                static_cast<unsigned long long>(hash[1]));
-  return name;
-}
-
 ReferenceCacheKey reference_cache_key(const MatrixCacheKey& matrix_key, bool symmetrised,
                                       const System& system, const ReferenceOptions& options) {
   // The materials as exact bytes: rho and E per channel and element.
@@ -95,10 +88,7 @@ std::optional<Reference> ReferenceCache::load(
   std::error_code ec;
   if (!std::filesystem::exists(file, ec)) return std::nullopt;
   auto reject = [&](const std::string& why) -> std::optional<Reference> {
-    log::warning("reference cache: " + file.string() + ": " + why +
-                 "; the file is not trusted, deleted, and the reference recomputed");
-    std::error_code ignored;
-    std::filesystem::remove(file, ignored);
+    folder_.distrust(file, why);
     return std::nullopt;
   };
   std::ifstream in(file, std::ios::binary);
@@ -153,13 +143,6 @@ std::optional<Reference> ReferenceCache::load(
 }
 
 bool ReferenceCache::store(const ReferenceCacheKey& key, const Reference& ref) const {
-  std::error_code ec;
-  std::filesystem::create_directories(folder_, ec);
-  if (ec) {
-    log::warning("reference cache: cannot create " + folder_.string() + " (" + ec.message() +
-                 "); the reference is not cached");
-    return false;
-  }
   Header h{};
   std::memcpy(h.magic, kMagic, sizeof kMagic);
   h.version = kFormatVersion;
@@ -180,25 +163,11 @@ bool ReferenceCache::store(const ReferenceCacheKey& key, const Reference& ref) c
   const uint64_t checksum = hash_bytes(bytes.data(), bytes.size(), kChecksumSeed);
   append(bytes, &checksum, 1);
 
-  remove_stale_temporaries(folder_);
-  const std::filesystem::path final_path = path(key);
-  try {
-    OutputFile out(final_path.string(), /*binary=*/true, /*sync=*/true);
-    out.write(bytes);
-    out.commit();
-  } catch (const std::exception& e) {
-    log::warning(std::string("reference cache: ") + e.what() + "; the reference is not cached");
-    return false;
-  }
-  return true;
+  return folder_.write(path(key), [&](OutputFile& out) { out.write(bytes); });
 }
 
 std::unique_ptr<FileLock> ReferenceCache::lock(const ReferenceCacheKey& key) const {
-  std::error_code ec;
-  std::filesystem::create_directories(folder_, ec);
-  std::filesystem::path file = path(key);
-  file.replace_extension(".lock");
-  return FileLock::acquire(file.string(), "the same reference (" + file.string() + ")");
+  return folder_.lock(key, "the same reference");
 }
 
 }  // namespace radlab

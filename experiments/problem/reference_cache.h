@@ -7,8 +7,8 @@
 // residual against the matrix in memory (or the rows the method computes, when rows are on the
 // fly), so the certificate printed is always of this run. A
 // corrupt, stale or uncertifiable file is reported, deleted and the reference recomputed.
-// Writes, locks and the removal of stale temporaries work as in
-// formfactor/matrix/matrix_cache.h.
+// File names, writes, locks and the removal of stale temporaries are the cache folder's
+// (core/cache_folder.h), shared with the form-factor cache.
 #pragma once
 
 #include <filesystem>
@@ -21,10 +21,8 @@
 
 namespace radlab {
 
-struct ReferenceCacheKey {
-  std::string text;
-  std::array<uint64_t, 2> hash{};
-  std::string file_name() const;  // 32 hex digits + ".ref"
+struct ReferenceCacheKey : CacheKey {
+  std::string file_name() const { return hex() + ".ref"; }
 };
 
 ReferenceCacheKey reference_cache_key(const MatrixCacheKey& matrix_key, bool symmetrised,
@@ -35,9 +33,10 @@ class ReferenceCache {
   // 2: references are of the method's double-precision matrix, whatever the storage.
   static constexpr uint32_t kFormatVersion = 2;
 
-  explicit ReferenceCache(std::filesystem::path folder) : folder_(std::move(folder)) {}
+  explicit ReferenceCache(std::filesystem::path folder)
+      : folder_(std::move(folder), "reference cache", "reference", "recomputed") {}
   std::filesystem::path path(const ReferenceCacheKey& key) const {
-    return folder_ / key.file_name();
+    return folder_.file(key, ".ref");
   }
 
   // The stored reference, certified anew against `matrix`; nullopt when missing (quietly) or
@@ -55,14 +54,13 @@ class ReferenceCache {
   // As MatrixCache::lock: held while computing and storing the reference of `key`.
   std::unique_ptr<FileLock> lock(const ReferenceCacheKey& key) const;
 
-  // Stores atomically (temporary, fsync, rename), first removing stale temporaries; failures
-  // are warnings. Returns success.
+  // Stores atomically (CacheFolder::write); failures are warnings. Returns success.
   bool store(const ReferenceCacheKey& key, const Reference& reference) const;
 
  private:
   std::optional<Reference> load(const ReferenceCacheKey& key, const System& system,
                                 const std::function<void(Reference&)>& recertify) const;
-  std::filesystem::path folder_;
+  CacheFolder folder_;
 };
 
 }  // namespace radlab

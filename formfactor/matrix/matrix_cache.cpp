@@ -17,31 +17,6 @@
 
 namespace radlab {
 
-uint64_t hash_bytes(const void* data, size_t size, uint64_t seed) {
-  const auto* bytes = static_cast<const unsigned char*>(data);
-  uint64_t lane[4] = {mix64(seed ^ 0x243f6a8885a308d3ULL), mix64(seed ^ 0x13198a2e03707344ULL),
-                      mix64(seed ^ 0xa4093822299f31d0ULL), mix64(seed ^ 0x082efa98ec4e6c89ULL)};
-  size_t k = 0;
-  // Four independent lanes keep the multipliers busy: ~several GB/s on one core.
-  for (; k + 32 <= size; k += 32)
-    for (int l = 0; l < 4; ++l) {
-      uint64_t word;
-      std::memcpy(&word, bytes + k + 8 * size_t(l), 8);
-      lane[l] = mix64(lane[l] ^ word) + word;
-    }
-  uint64_t h = mix64(seed + size);
-  for (int l = 0; l < 4; ++l) h = mix64(h ^ lane[l]);
-  for (; k < size; ++k) h = mix64(h ^ (uint64_t(bytes[k]) << 8) ^ k);
-  return h;
-}
-
-std::string MatrixCacheKey::file_name() const {
-  char buffer[40];
-  std::snprintf(buffer, sizeof buffer, "%016llx%016llx.ffm",
-                static_cast<unsigned long long>(hash[0]), static_cast<unsigned long long>(hash[1]));
-  return buffer;
-}
-
 MatrixCacheKey matrix_cache_key(const Mesh& mesh, const std::string& method,
                                 const std::string& parameters, Precision precision) {
   // The mesh: exact bytes of everything that determines F.
@@ -224,10 +199,7 @@ std::optional<FormFactorMatrix> MatrixCache::load(const MatrixCacheKey& key,
   const uint64_t file_size = std::filesystem::file_size(file, ec);
 
   auto reject = [&](const std::string& why) -> std::optional<FormFactorMatrix> {
-    log::warning("form-factor cache: " + file.string() + ": " + why +
-                 "; the file is not trusted, deleted, and the matrix rebuilt");
-    std::error_code ignored;
-    std::filesystem::remove(file, ignored);
+    folder_.distrust(file, why);
     return std::nullopt;
   };
   if (ec) return reject("cannot read its size (" + ec.message() + ")");
@@ -297,13 +269,6 @@ std::optional<FormFactorMatrix> MatrixCache::load(const MatrixCacheKey& key,
 
 bool MatrixCache::store(const MatrixCacheKey& key, const FormFactorMatrix& matrix,
                         const BuildReport& report) const {
-  std::error_code ec;
-  std::filesystem::create_directories(folder_, ec);
-  if (ec) {
-    log::warning("form-factor cache: cannot create " + folder_.string() + " (" + ec.message() +
-                 "); the matrix is not cached");
-    return false;
-  }
   const size_t n = matrix.size();
   Header h{};
   std::memcpy(h.magic, kMagic, sizeof kMagic);
@@ -332,10 +297,7 @@ bool MatrixCache::store(const MatrixCacheKey& key, const FormFactorMatrix& matri
   h.build_threads = report.threads;
   h.header_checksum = header_checksum(h, key.text);
 
-  remove_stale_temporaries(folder_);
-  const std::filesystem::path final_path = path(key);
-  try {
-    OutputFile out(final_path.string(), /*binary=*/true, /*sync=*/true);
+  return folder_.write(path(key), [&](OutputFile& out) {
     out.write({reinterpret_cast<const char*>(&h), sizeof h});
     out.write(key.text);
     if (matrix.sparse())
@@ -344,20 +306,11 @@ bool MatrixCache::store(const MatrixCacheKey& key, const FormFactorMatrix& matri
       });
     else
       out.write({reinterpret_cast<const char*>(matrix.data()), matrix.bytes()});
-    out.commit();
-  } catch (const std::exception& e) {
-    log::warning(std::string("form-factor cache: ") + e.what() + "; the matrix is not cached");
-    return false;
-  }
-  return true;
+  });
 }
 
 std::unique_ptr<FileLock> MatrixCache::lock(const MatrixCacheKey& key) const {
-  std::error_code ec;
-  std::filesystem::create_directories(folder_, ec);
-  std::filesystem::path file = path(key);
-  file.replace_extension(".lock");
-  return FileLock::acquire(file.string(), "the same form-factor matrix (" + file.string() + ")");
+  return folder_.lock(key, "the same form-factor matrix");
 }
 
 bool write_matrix_side_file(const std::filesystem::path& matrix_file, const std::string& suffix,

@@ -17,12 +17,10 @@
 //   used.
 // A file that is truncated, has the wrong size, a different version or byte order, a different
 // key, or a checksum mismatch is reported (log::warning), deleted and rebuilt; it is never
-// trusted. Files are written to a temporary name in the same folder, synced to disk and renamed
-// into place, so readers see either the old file, the new one, or none. A per-key lock file
-// (`<32 hex digits>.lock`, flock) lets concurrent processes build one matrix once: the first
-// builds, the others wait, then load it. Temporaries left by a killed writer
-// (`*.tmp.<pid>.<n>`) are removed by later stores once their process is gone and they are over
-// a minute old, or once they are a day old (core/output_file.h).
+// trusted. File names, the per-key lock, atomic writes and the removal of temporaries left by a
+// killed writer are the cache folder's (core/cache_folder.h), shared with the reference cache:
+// readers see either the old file, the new one, or none, and concurrent processes build one
+// matrix once (the first builds, the others wait, then load it).
 //
 // Folder: `$RADLAB_CACHE_DIR` if set, else `$XDG_CACHE_HOME/radlab`, else `~/.cache/radlab`.
 // Nothing evicts old files: delete the folder to reclaim the space.
@@ -35,20 +33,16 @@
 #include <string>
 #include <vector>
 
+#include "core/cache_folder.h"
 #include "core/file_lock.h"
+#include "core/hash.h"
 #include "formfactor/matrix/matrix.h"
 
 namespace radlab {
 
-// 64-bit hash of a byte range (not cryptographic; four independent lanes of a SplitMix64-style
-// mixer, then folded). Different seeds give independent hashes.
-uint64_t hash_bytes(const void* data, size_t size, uint64_t seed);
-
-struct MatrixCacheKey {
-  std::array<uint64_t, 2> hash{};
-  std::string
-      text;  // "format=...;code=...;method=...;parameters=...;precision=...;elements=...;mesh=..."
-  std::string file_name() const;  // 32 hex digits + ".ffm"
+// text: "format=...;code=...;method=...;parameters=...;precision=...;elements=...;mesh=..."
+struct MatrixCacheKey : CacheKey {
+  std::string file_name() const { return hex() + ".ffm"; }
 };
 
 // A hash of the form-factor and scene sources this binary was built from (cmake/SourceHash.cmake);
@@ -81,9 +75,10 @@ class MatrixCache {
   // 2: the sparse layout (FormFactorMatrix::sparse()) is stored as such.
   static constexpr uint32_t kFormatVersion = 2;
 
-  explicit MatrixCache(std::filesystem::path folder) : folder_(std::move(folder)) {}
-  const std::filesystem::path& folder() const { return folder_; }
-  std::filesystem::path path(const MatrixCacheKey& key) const { return folder_ / key.file_name(); }
+  explicit MatrixCache(std::filesystem::path folder)
+      : folder_(std::move(folder), "form-factor cache", "matrix", "rebuilt") {}
+  const std::filesystem::path& folder() const { return folder_.folder(); }
+  std::filesystem::path path(const MatrixCacheKey& key) const { return folder_.file(key, ".ffm"); }
 
   // The matrix stored under `key`, with the cost of its original build in `report` (if given;
   // report->cached is set). A missing file returns nullopt quietly; a bad file is reported,
@@ -95,13 +90,13 @@ class MatrixCache {
   // nullptr when the folder cannot hold a lock file (then nothing is locked).
   std::unique_ptr<FileLock> lock(const MatrixCacheKey& key) const;
 
-  // Stores atomically (temporary, fsync, rename), first removing stale temporaries. Failures
-  // (unwritable folder, full disk) are warnings; returns success.
+  // Stores atomically (CacheFolder::write). Failures (unwritable folder, full disk) are
+  // warnings; returns success.
   bool store(const MatrixCacheKey& key, const FormFactorMatrix& matrix,
              const BuildReport& report) const;
 
  private:
-  std::filesystem::path folder_;
+  CacheFolder folder_;
 };
 
 }  // namespace radlab
