@@ -54,7 +54,8 @@ struct ProblemEstimate {
   size_t elements = 0;
   int channels = 0;
   double matrix_bytes = 0, memory_bytes = 0, prepare_seconds = 0;
-  std::string error;  // the scene could not be loaded or meshed
+  std::string error;                     // the scene could not be loaded or meshed
+  std::vector<std::string> scene_files;  // every file the scene reads (the workflow's inputs)
 };
 
 ProblemEstimate estimate_problem(const PlannedProblem& planned) {
@@ -63,6 +64,7 @@ ProblemEstimate estimate_problem(const PlannedProblem& planned) {
   e.memory_bytes = 256e6;  // the program alone; a problem that fails to load needs no more
   try {
     LoadedScene loaded = load_scene(planned.spec.scene);
+    for (const SourceFile& f : loaded.scene.sources) e.scene_files.push_back(f.path);
     const Mesh mesh = build_mesh(loaded.scene, planned.spec.mesh);
     e.elements = mesh.size();
     e.channels = loaded.scene.is_grey() ? 1 : 3;
@@ -131,6 +133,7 @@ void print_plan(const ExperimentSpec& spec, const SweepPlan& plan) {
     json.field("matrix_bytes", e.matrix_bytes);
     json.field("memory_mb", std::ceil(e.memory_bytes / 1e6));
     json.field("prepare_seconds", e.prepare_seconds);
+    json.field("scene_files", e.scene_files);
     if (!e.error.empty()) json.field("error", e.error);
     json.end_object();
   }
