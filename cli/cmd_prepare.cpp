@@ -16,12 +16,15 @@
 // only for a finished preparation).
 //
 // Estimates (upper-bound-minded, machine-dependent, for a scheduler's requests, not for papers):
-//   memory  the dense matrix n^2 x 8 bytes (and its float rounding, 4 more, with float rows),
-//           plus the reference's dense n x n double LU, plus
-//           256 MB for the program, scene and vectors; a shard that finds the cache empty
+//   memory  what prepare_problem holds at its peak (experiments/problem/preparation_estimate.h,
+//           the estimate the memory_gb limit checks too): the matrix in double (8n^2), its float
+//           rounding (4n^2, float rows), the reference's LU (8n^2), the method's working memory
+//           (hemicube: 8 bytes per pixel of its 3R^2 per thread, 48R^2 of weights), the program,
+//           scene and mesh (64 MB + 4 kB per element); a shard that finds the cache empty
 //           recomputes both, so shards are given the same figure.
-//   time    prepare: n^2 pairs at 1 us each (form factors with visibility) + n^3/3 LU flops at
-//           1 ns each. A run: (rows x n + checkpoints x n^2) x channels multiply-adds at 1 ns,
+//   time    prepare: 1 s to start + n^2 pairs at 1 us each (raycast; hemicube: n rows of 3R^2
+//           pixels at 20 ns and n elements at 1 us) + n^3/3 LU flops at 1 ns (wall clock).
+//           A run: (rows x n + checkpoints x n^2) x channels multiply-adds at 1 ns,
 //           plus the budget's seconds; rows is the budget's rows or steps (a step reads about
 //           one row), or 1000 sweeps (the runner's cap) under a tolerance alone.
 //   Two levels (P patches): P x n patch rows (and their float rounding) instead of the matrix,
@@ -42,6 +45,7 @@
 #include "core/error.h"
 #include "core/json.h"
 #include "core/log.h"
+#include "experiments/problem/preparation_estimate.h"
 #include "experiments/sweep/experiment_spec.h"
 #include "experiments/sweep/sweep.h"
 #include "formfactor/matrix/matrix_cache.h"
@@ -54,7 +58,8 @@ struct ProblemEstimate {
   size_t elements = 0;
   int channels = 0;
   double matrix_bytes = 0, memory_bytes = 0, prepare_seconds = 0;
-  std::string error;  // the scene could not be loaded or meshed
+  std::string error;                     // the scene could not be loaded or meshed
+  std::vector<std::string> scene_files;  // every file the scene reads (the workflow's inputs)
 };
 
 ProblemEstimate estimate_problem(const PlannedProblem& planned) {
@@ -63,6 +68,7 @@ ProblemEstimate estimate_problem(const PlannedProblem& planned) {
   e.memory_bytes = 256e6;  // the program alone; a problem that fails to load needs no more
   try {
     LoadedScene loaded = load_scene(planned.spec.scene);
+    for (const SourceFile& f : loaded.scene.sources) e.scene_files.push_back(f.path);
     const Mesh mesh = build_mesh(loaded.scene, planned.spec.mesh);
     e.elements = mesh.size();
     e.channels = loaded.scene.is_grey() ? 1 : 3;
@@ -82,12 +88,14 @@ ProblemEstimate estimate_problem(const PlannedProblem& planned) {
         (centre ? patches : n) * n * 1e-6 + patches * patches * patches / 3.0 * 1e-9;
     return e;
   }
-  // The matrix the solvers read, plus (with float storage) the double matrix the reference is
-  // certified against, which prepare_problem keeps beside it.
-  const bool float_rows = planned.spec.precision == Precision::kFloat;
-  e.matrix_bytes = n * n * (float_rows ? 4.0 + 8.0 : 8.0);
-  e.memory_bytes = e.matrix_bytes + (planned.spec.need_reference ? 8.0 * n * n : 0.0) + 256e6;
-  e.prepare_seconds = n * n * 1e-6 + (planned.spec.need_reference ? n * n * n / 3.0 * 1e-9 : 0.0);
+  // What prepare_problem holds at its peak (the matrix in double, its float rounding, the
+  // reference's LU, the method's buffers: a hemicube's grow with R^2 per thread) and its time:
+  // experiments/problem/preparation_estimate.h, the estimate the memory_gb limit checks.
+  const PreparationEstimate estimate =
+      estimate_preparation(planned.spec, e.elements, preparation_threads());
+  e.matrix_bytes = estimate.matrix_bytes + estimate.float_bytes;
+  e.memory_bytes = estimate.total_bytes();
+  e.prepare_seconds = estimate.seconds;
   return e;
 }
 
@@ -131,6 +139,7 @@ void print_plan(const ExperimentSpec& spec, const SweepPlan& plan) {
     json.field("matrix_bytes", e.matrix_bytes);
     json.field("memory_mb", std::ceil(e.memory_bytes / 1e6));
     json.field("prepare_seconds", e.prepare_seconds);
+    json.field("scene_files", e.scene_files);
     if (!e.error.empty()) json.field("error", e.error);
     json.end_object();
   }

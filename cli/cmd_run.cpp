@@ -70,18 +70,24 @@ void add_merge_command(CLI::App& app) {
   auto dirs = std::make_shared<std::vector<std::string>>();
   auto out = std::make_shared<std::string>();
   auto allow_incomplete = std::make_shared<bool>(false);
+  auto overwrite = std::make_shared<bool>(false);
   command->add_option("shards", *dirs, "shard output folders")->required();
   command->add_option("--out", *out, "merged output folder")->required();
   command->add_flag("--allow-incomplete", *allow_incomplete,
                     "merge shards that do not hold every run of the sweep (sweep.json then says "
                     "status \"incomplete\" and counts the missing runs)");
-  command->callback([dirs, out, allow_incomplete]() {
+  command->add_flag("--overwrite", *overwrite,
+                    "replace an --out that holds another experiment's sweep, a shard, or files "
+                    "that are no sweep (as `radlab run --overwrite`)");
+  command->callback([dirs, out, allow_incomplete, overwrite]() {
     MergeOptions options;
     options.command = "radlab merge";
     for (const std::string& dir : *dirs) options.command += " " + dir;
     options.command += " --out " + *out;
     if (*allow_incomplete) options.command += " --allow-incomplete";
+    if (*overwrite) options.command += " --overwrite";
     options.allow_incomplete = *allow_incomplete;
+    options.overwrite = *overwrite;
     const size_t runs = merge_shards(*dirs, *out, options);
     // An --allow-incomplete merge that lacks runs gets no page (radlab report refuses it too).
     if (incomplete_sweep_reason(*out).empty()) write_report_page(*out);

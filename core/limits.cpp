@@ -18,7 +18,8 @@ struct Key {
 
 constexpr Key kKeys[] = {
     {"elements", &Limits::elements, false, "mesh elements"},
-    {"memory_gb", &Limits::memory_gb, true, "GB for the dense form-factor matrix"},
+    {"memory_gb", &Limits::memory_gb, true,
+     "GB for preparing a dense problem (matrix, its float copy, reference LU, method buffers)"},
     {"pairs", &Limits::pairs, false, "element pairs of a dense form-factor build"},
     {"polygons", &Limits::polygons, false, "input polygons after MGF includes and arrays"},
     {"runs", &Limits::runs, false, "planned runs of one experiment"},

@@ -15,11 +15,11 @@
 namespace radlab {
 
 struct Limits {
-  double elements = 2e6;    // mesh elements (the unknowns)
-  double memory_gb = 4.0;   // the dense form-factor matrix (n^2 entries)
-  double pairs = 2.5e8;     // element pairs a dense form-factor build evaluates (n^2)
-  double polygons = 5e6;    // input polygons after MGF includes and array instances
-  double runs = 1e5;        // planned runs of one experiment
+  double elements = 2e6;   // mesh elements (the unknowns)
+  double memory_gb = 4.0;  // preparing a dense problem (experiments/problem/preparation_estimate.h)
+  double pairs = 2.5e8;    // element pairs a dense form-factor build evaluates (n^2)
+  double polygons = 5e6;   // input polygons after MGF includes and array instances
+  double runs = 1e5;       // planned runs of one experiment
   double images_gb = 20.0;  // bytes of images a sweep writes (EXR + PNG, every step and run)
 };
 

@@ -36,11 +36,21 @@ struct Camera {
   double vertical_fov_degrees = 40.0;
 };
 
+// A file a scene was read from (the scene file, its material libraries, its MGF includes): the
+// path as the reader named it and the SHA-256 of the bytes it read. A sweep's identity holds
+// them, so that a run on an edited box.mtl is never mixed with runs on the old one.
+struct SourceFile {
+  std::string path;
+  std::string sha256;
+  bool operator==(const SourceFile&) const = default;
+};
+
 struct Scene {
   std::string name;  // the spec it was loaded from, e.g. "builtin:cube:rho=0.9"
   std::vector<Material> materials;
   std::vector<Polygon> polygons;
-  std::optional<Camera> camera;  // the scene's own view, if it has one
+  std::optional<Camera> camera;     // the scene's own view, if it has one
+  std::vector<SourceFile> sources;  // every file read, in the order first read (none: builtin)
 
   int emitter_count() const;
   // True when every reflectance and emission is grey (r = g = b): one colour channel suffices.

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "scene/scene.h"
 #include "scene/validate.h"
@@ -24,5 +25,10 @@ void set_mgf_include_root(const std::string& folder);
 // polygons are left as they are (validate_scene).
 LoadedScene load_scene(const std::string& spec, bool print_warnings = true,
                        bool keep_overlaps = false);
+
+// The files `spec` reads, with the SHA-256 of their bytes (Scene::sources), from running its
+// reader without validating or printing anything; none for a builtin. InputError as load_scene
+// when a file cannot be read.
+std::vector<SourceFile> scene_source_files(const std::string& spec);
 
 }  // namespace radlab

@@ -17,7 +17,7 @@ main_packages=(
   libcli11-dev libtomlplusplus-dev libpng-dev nlohmann-json3-dev
   libboost-dev  # Boost.Geometry R-tree (scene/overlap.cpp), Boost.Random Sobol (solvers/monte_carlo)
   libcgal-dev  # scene/triangulate.cpp (header-only)
-  libssl-dev  # SHA-256 of loaded plugins (solvers/plugin_loader.cpp)
+  libssl-dev  # SHA-256 of scene files, sweep manifests and plugins (core/sha256.cpp)
   python3 python3-matplotlib python3-numpy python3-pandas
 )
 test_packages=(

@@ -1,7 +1,6 @@
 #include "solvers/plugin_loader.h"
 
 #include <dlfcn.h>
-#include <openssl/evp.h>
 
 #include <algorithm>
 #include <cstdlib>
@@ -100,13 +99,21 @@ void load_plugin(const std::string& path) {
     throw InputError("plugin " + path + ": " + mismatch + "; rebuild it against this radlab");
   // Hashed before its code runs, so what is recorded is what was loaded.
   const std::string digest = file_sha256(canonical);
+  // What it registers: the entries its registration appends to the two tables.
+  const size_t solvers_before = solver_registry().size();
+  const size_t methods_before = form_factor_methods().size();
   try {
     registration();
   } catch (const Error& e) {
     throw InputError("plugin " + path + ": " + e.what());
   }
+  PluginProvenance record{canonical, digest, {}, {}};
+  for (size_t k = solvers_before; k < solver_registry().size(); ++k)
+    record.solvers.push_back(solver_registry()[k].name);
+  for (size_t k = methods_before; k < form_factor_methods().size(); ++k)
+    record.methods.push_back(form_factor_methods()[k].name);
   loaded().push_back(canonical);
-  provenance().push_back({canonical, digest});
+  provenance().push_back(std::move(record));
 }
 
 std::vector<std::string> load_plugins_from_environment() {
@@ -168,27 +175,17 @@ const std::vector<PluginProvenance>& loaded_plugin_provenance() {
   return provenance();
 }
 
-std::string file_sha256(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open file to hash it");
-  const std::unique_ptr<EVP_MD_CTX, decltype(&EVP_MD_CTX_free)> context(EVP_MD_CTX_new(),
-                                                                        &EVP_MD_CTX_free);
-  if (!context || EVP_DigestInit_ex(context.get(), EVP_sha256(), nullptr) != 1)
-    throw InputError(path + ": SHA-256 unavailable (OpenSSL)");
-  std::vector<char> block(1 << 16);
-  while (in.read(block.data(), std::streamsize(block.size())) || in.gcount() > 0)
-    EVP_DigestUpdate(context.get(), block.data(), size_t(in.gcount()));
-  if (in.bad()) throw InputError(path + ": read error while hashing it");
-  unsigned char digest[EVP_MAX_MD_SIZE];
-  unsigned int length = 0;
-  EVP_DigestFinal_ex(context.get(), digest, &length);
-  static const char* hex = "0123456789abcdef";
-  std::string out;
-  for (unsigned int i = 0; i < length; ++i) {
-    out += hex[digest[i] >> 4];
-    out += hex[digest[i] & 15];
+std::vector<PluginProvenance> plugins_providing(const std::string& solver,
+                                                const std::string& method) {
+  std::vector<PluginProvenance> used;
+  for (const PluginProvenance& p : provenance()) {
+    const bool runs_solver =
+        std::find(p.solvers.begin(), p.solvers.end(), solver) != p.solvers.end();
+    const bool runs_method =
+        std::find(p.methods.begin(), p.methods.end(), method) != p.methods.end();
+    if (runs_solver || runs_method) used.push_back(p);
   }
-  return out;
+  return used;
 }
 
 const std::vector<std::string>& loaded_plugins() {

@@ -20,6 +20,8 @@
 #include <string>
 #include <vector>
 
+#include "core/sha256.h"  // file_sha256
+
 namespace radlab {
 
 // Loads one plugin file.
@@ -46,10 +48,13 @@ const std::vector<std::string>& loaded_plugins();
 struct PluginProvenance {
   std::string path;    // canonical
   std::string sha256;  // of the file's bytes when it was loaded, lower-case hex
+  std::vector<std::string> solvers, methods;  // the names its registration added
 };
 const std::vector<PluginProvenance>& loaded_plugin_provenance();
 
-// SHA-256 of a file's bytes, lower-case hex (OpenSSL). InputError naming the file if unreadable.
-std::string file_sha256(const std::string& path);
+// The loaded plugins whose code a run of `solver` with form-factor method `method` executes:
+// those that registered either (run.json's "plugins").
+std::vector<PluginProvenance> plugins_providing(const std::string& solver,
+                                                const std::string& method);
 
 }  // namespace radlab

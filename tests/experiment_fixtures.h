@@ -41,4 +41,32 @@ rows = 200
 omega = [1.0, 1.3]
 )";
 
+// A closed unit box read from an OBJ and its material library (box.mtl): five white walls
+// (Kd 0.5) facing in, and a ceiling that emits (Ke 1). The sweep tests edit the Kd to check that a
+// sweep's identity covers the files a scene reads.
+inline constexpr const char* kBoxObj = R"(mtllib box.mtl
+v 0 0 0
+v 1 0 0
+v 1 1 0
+v 0 1 0
+v 0 0 1
+v 1 0 1
+v 1 1 1
+v 0 1 1
+usemtl white
+f 1 5 6 2
+f 1 4 8 5
+f 2 6 7 3
+f 1 2 3 4
+f 5 8 7 6
+usemtl light
+f 4 3 7 8
+)";
+inline constexpr const char* kBoxMtl = R"(newmtl white
+Kd 0.5 0.5 0.5
+newmtl light
+Kd 0 0 0
+Ke 1 1 1
+)";
+
 }  // namespace radlab::testing

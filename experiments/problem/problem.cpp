@@ -7,6 +7,7 @@
 #include "core/limits.h"
 #include "core/log.h"
 #include "core/progress.h"
+#include "experiments/problem/preparation_estimate.h"
 #include "experiments/problem/reference_cache.h"
 #include "experiments/problem/two_level_problem.h"
 #include "formfactor/matrix/matrix_cache.h"
@@ -187,12 +188,18 @@ void find_streamed_reference(Preparation& p) {
   problem.reference_cache_file = references.path(reference_key).string();
 }
 
-// The n^2 matrix is estimated against the limits before it is allocated and computed.
+// The n^2 matrix is estimated against the limits before it is allocated and computed: the memory
+// is everything the preparation holds at its peak (the matrix in double, its float rounding, the
+// reference's LU, the method's buffers, the program), not the solvers' matrix alone.
 void check_dense_limits(const Preparation& p) {
   const double pairs = double(p.n()) * double(p.n());
   const std::string what = p.problem.scene().name + ": the dense form-factor matrix of " +
                            std::to_string(p.n()) + " elements";
-  check_limit("memory_gb", pairs * (p.precision == Precision::kDouble ? 8.0 : 4.0), what);
+  ProblemSpec spec = p.spec;
+  spec.precision = p.precision;
+  const PreparationEstimate estimate = estimate_preparation(spec, p.n(), preparation_threads());
+  check_limit("memory_gb", estimate.total_bytes(),
+              what + " and what its preparation holds beside it (" + estimate.describe() + ")");
   check_limit("pairs", pairs, what + " (" + p.spec.ff_method + ")");
 }
 

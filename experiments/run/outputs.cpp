@@ -51,6 +51,15 @@ void write_scene_info(JsonWriter& json, const Problem& p) {
   json.field("grey", p.scene().is_grey());
   json.field("polygons_dropped", p.loaded.report.dropped);
   json.field("polygons_split", p.loaded.report.triangulated);
+  // Every file the scene was read from, with the SHA-256 of the bytes read (Scene::sources).
+  json.key("files").begin_array();
+  for (const SourceFile& f : p.scene().sources) {
+    json.begin_object();
+    json.field("path", f.path);
+    json.field("sha256", f.sha256);
+    json.end_object();
+  }
+  json.end_array();
   json.end_object();
 }
 

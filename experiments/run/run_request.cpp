@@ -15,6 +15,7 @@
 #include "render/exr_io.h"
 #include "render/png_io.h"
 #include "render/renderer.h"
+#include "solvers/plugin_loader.h"
 #include "solvers/registry.h"
 
 namespace radlab {
@@ -46,7 +47,9 @@ void check_outputs_writable(const RunOutputs& outputs) {
 
 std::unique_ptr<Solver> make_requested_solver(const RunRequest& request) {
   ParamBag bag = request.solver_parameters;  // make_solver marks what it reads
-  return make_solver(request.solver, bag);
+  // A plugin's factory may throw anything: contained to this run (runner.h).
+  return call_solver(request.labels, "its factory",
+                     [&] { return make_solver(request.solver, bag); });
 }
 
 // The run proper, with its solver made: run, then the files.
@@ -144,6 +147,15 @@ void begin_run_json(JsonWriter& json, const RunRequest& request, const Problem* 
   if (request.identity.run_index) json.field("run_index", *request.identity.run_index);
   if (!request.identity.experiment.empty()) json.field("experiment", request.identity.experiment);
   write_build_info(json);
+  // The plugin files whose code this run executes (its solver's, its form-factor method's).
+  json.key("plugins").begin_array();
+  for (const PluginProvenance& p : plugins_providing(request.solver, request.problem.ff_method)) {
+    json.begin_object();
+    json.field("path", p.path);
+    json.field("sha256", p.sha256);
+    json.end_object();
+  }
+  json.end_array();
   if (problem) write_problem_info(json, *problem);
   if (options) write_solver_info(json, request.solver, *options);
 }

@@ -62,6 +62,19 @@ long long CheckpointSchedule::next_after(long long step) const {
   return next;
 }
 
+void check_solver_field(const Radiosity& field, const System& system, const RunLabels& labels,
+                        const char* what) {
+  if (field.size() == system.size() && field.channels() == system.channels() &&
+      field.raw().size() == system.size() * size_t(system.channels()))
+    return;
+  throw NumericalError(
+      labels.run_id + ": solver '" + labels.solver + "' returned from " + what + " " +
+      std::to_string(field.size()) + " elements x " + std::to_string(field.channels()) +
+      " channels; the system has " + std::to_string(system.size()) + " x " +
+      std::to_string(system.channels()) +
+      " (a solver must return one value per element and channel: solvers/solver.h)");
+}
+
 namespace {
 
 bool all_finite(const Radiosity& field) {
@@ -92,12 +105,20 @@ class Evaluator {
   // Writes the checkpoint rows; returns the certified relative bound (NaN if unavailable).
   double evaluate(const Solver& solver, long long step, unsigned long long rows, double seconds,
                   unsigned long long rays, unsigned long long pair_evals, RunResult& result) {
-    const Radiosity& B = solver.solution();
+    const System& system = *problem_.system;
+    const Radiosity& B =
+        call_solver(labels_, "solution()", [&]() -> const Radiosity& { return solver.solution(); });
+    check_solver_field(B, system, labels_, "solution()");
     if (!all_finite(B))
       throw NumericalError(labels_.run_id + ": non-finite radiosity at step " +
                            std::to_string(step) + " (the solver diverged)");
-    const Radiosity display = solver.display();
-    const Radiosity* unshot = solver.unshot();
+    const Radiosity display = call_solver(labels_, "display()", [&] { return solver.display(); });
+    check_solver_field(display, system, labels_, "display()");
+    if (!all_finite(display))
+      throw NumericalError(labels_.run_id + ": non-finite display() values at step " +
+                           std::to_string(step) + " from solver '" + labels_.solver + "'");
+    const Radiosity* unshot = call_solver(labels_, "unshot()", [&] { return solver.unshot(); });
+    if (unshot) check_solver_field(*unshot, system, labels_, "unshot()");
     const std::vector<double> residual = residual_of(B);
     const double inverse_norm =
         problem_.reference ? problem_.reference->inverse_norm_bound : std::nan("");
@@ -111,7 +132,8 @@ class Evaluator {
     std::vector<int> fields = {kMeanOfChannels};
     if (channels == 3) fields.insert(fields.end(), {0, 1, 2});
     const char* names[] = {"r", "g", "b"};
-    const std::string statistics = statistics_field(solver.statistics());
+    const std::string statistics =
+        statistics_field(call_solver(labels_, "statistics()", [&] { return solver.statistics(); }));
     for (int field : fields) {
       TraceCheckpoint row{.labels = labels_,
                           .problem = problem_,
@@ -306,8 +328,8 @@ std::string tolerance_text(const Budget& budget, const Budget& asked) {
 
 // The run's totals and, with a tolerance, its verdict.
 void finish_result(RunResult& result, const Problem& problem, const Solver& solver,
-                   const Budget& budget, const Budget& asked, double bound, double scale,
-                   double seconds, long long step) {
+                   const RunLabels& labels, const Budget& budget, const Budget& asked, double bound,
+                   double scale, double seconds, long long step) {
   const System& system = *problem.system;
   result.steps = step;
   result.rows = system.rows_used();
@@ -318,7 +340,7 @@ void finish_result(RunResult& result, const Problem& problem, const Solver& solv
   result.final_bound_relative = bound;
   result.final_bound_relative_reflected = bound * scale;
   result.tolerance_of_reflected = budget.tol_of_reflected;
-  result.statistics = solver.statistics();
+  result.statistics = call_solver(labels, "statistics()", [&] { return solver.statistics(); });
   if (!budget.tol) return;
   result.tolerance_asked = true;
   result.tolerance_reached = bound <= *budget.tol;
@@ -352,7 +374,7 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
   using Clock = std::chrono::steady_clock;
   system.reset_counters();
   auto t0 = Clock::now();
-  solver.init(system);
+  call_solver(labels, "init()", [&] { solver.init(system); });
   double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
 
   const double total = budget.steps  ? double(*budget.steps)
@@ -385,7 +407,7 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
       break;
     }
     auto start = Clock::now();
-    const StepInfo info = solver.step();
+    const StepInfo info = call_solver(labels, "step()", [&] { return solver.step(); });
     seconds += std::chrono::duration<double>(Clock::now() - start).count();
     ++step;
     progress.update(budget.steps ? double(step) : double(system.rows_used()));
@@ -410,7 +432,7 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
     }
   }
   progress.finish(result.stop_reason);
-  finish_result(result, problem, solver, budget, budget_in, bound, scale, seconds, step);
+  finish_result(result, problem, solver, labels, budget, budget_in, bound, scale, seconds, step);
   if (trace) trace->flush();
   return result;
 }

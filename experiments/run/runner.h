@@ -6,11 +6,14 @@
 // long enough for the slowest stationary method at the scene's spectral radius; docs/reference.md).
 #pragma once
 
+#include <exception>
 #include <functional>
+#include <new>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "core/error.h"
 #include "experiments/problem/problem.h"
 #include "experiments/run/trace.h"
 #include "metrics/error_metrics.h"
@@ -96,6 +99,34 @@ struct RunResult {
   // solver_statistics and the summary's solver_statistics column.
   std::vector<std::pair<std::string, double>> statistics;
 };
+
+// Calls `f` (solver code: a plugin's, maybe) so that what it throws stays this run's failure: a
+// radlab Error and std::bad_alloc pass unchanged; any other exception becomes a NumericalError
+// (exit 4) naming the run, the solver, `call` and the exception's message, so that a sweep
+// records the run as failed and goes on instead of ending as an internal error.
+template <class F>
+auto call_solver(const RunLabels& labels, const char* call, F&& f) -> decltype(f()) {
+  try {
+    return f();
+  } catch (const Error&) {
+    throw;
+  } catch (const std::bad_alloc&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw NumericalError(labels.run_id + ": solver '" + labels.solver + "' threw from " + call +
+                         ": " + e.what());
+  } catch (...) {
+    throw NumericalError(labels.run_id + ": solver '" + labels.solver + "' threw from " + call +
+                         " something that is not a std::exception");
+  }
+}
+
+// The solver interface's contract on a field the runner reads (solution(), display(),
+// unshot()): one value per element of the system and one channel or three per the system,
+// checked before anything reads it (a plugin returning the wrong size made radlab read out of
+// bounds). NumericalError naming the run, the solver and `what` otherwise.
+void check_solver_field(const Radiosity& field, const System& system, const RunLabels& labels,
+                        const char* what);
 
 // Called at every checkpoint after the metrics are written (e.g. to save images).
 using CheckpointHook = std::function<void(long long step, const Solver& solver)>;

@@ -15,6 +15,7 @@
 #include "core/output_file.h"
 #include "core/text.h"
 #include "experiments/sweep/sweep.h"
+#include "experiments/sweep/sweep_folder.h"
 
 namespace radlab {
 namespace {
@@ -25,7 +26,8 @@ struct Shard {
   Json sweep;
   CsvTable summary, trace;
   int index = 0, count = 1;
-  std::set<std::string> stems;  // file stems of its runs
+  std::set<std::string> stems;          // file stems of its runs
+  std::vector<ManifestEntry> manifest;  // its files, verified against their SHA-256
 };
 
 std::string text_at(const Json& json, const std::string& key) {
@@ -84,24 +86,29 @@ Shard read_shard(const std::string& dir) {
     throw InputError(dir + "/sweep.json: bad shard '" + required(s, "shard") + "'");
   s.index = int(*i);
   s.count = int(*n);
+  // Every file as the shard left it (a cut summary, deleted trace rows, an emptied runs/ are
+  // refused here, naming the file), before any is read.
+  s.manifest = verify_manifest(fs::path(dir), s.sweep);
   s.summary = read_csv((fs::path(dir) / "summary.csv").string());
   s.trace = read_csv((fs::path(dir) / "trace.csv").string());
   return s;
 }
 
-// Copies the files of `shard`'s runs (names starting with a run's file stem) from `folder`.
-void copy_run_files(const Shard& shard, const char* folder, const fs::path& to) {
-  const fs::path from = fs::path(shard.dir) / folder;
-  if (!fs::exists(from)) return;
-  fs::create_directories(to / folder);
-  for (const auto& entry : fs::directory_iterator(from)) {
-    if (!entry.is_regular_file()) continue;
-    const std::string name = entry.path().filename().string();
+// Copies the files of `shard`'s runs (its manifest's files in runs/, images/ and coverage/,
+// whose names start with a run's file stem).
+void copy_run_files(const Shard& shard, const fs::path& to) {
+  for (const ManifestEntry& e : shard.manifest) {
+    const fs::path relative(e.path);
+    if (!relative.has_parent_path()) continue;  // trace.csv, summary.csv: merged, not copied
+    const std::string name = relative.filename().string();
     bool ours = false;
     for (const std::string& stem : shard.stems)
       if (name.rfind(stem + ".", 0) == 0 || name.rfind(stem + "_step", 0) == 0) ours = true;
-    if (ours && name.find(".tmp.") == std::string::npos)
-      fs::copy_file(entry.path(), to / folder / name, fs::copy_options::overwrite_existing);
+    if (!ours)
+      throw InputError(shard.dir + "/" + e.path + ": a file of no run its sweep.json lists");
+    fs::create_directories(to / relative.parent_path());
+    fs::copy_file(fs::path(shard.dir) / relative, to / relative,
+                  fs::copy_options::overwrite_existing);
   }
 }
 
@@ -154,10 +161,28 @@ void check_output_folder(const std::vector<std::string>& dirs, const std::string
   }
   if (fs::exists(out)) {
     if (!fs::is_directory(out)) throw UsageError("merge: --out " + out_dir + " is not a folder");
-    if (!fs::exists(out / "sweep.json") && !fs::is_empty(out))
-      throw UsageError("merge: --out " + out_dir +
-                       " is not empty and holds no sweep; choose an empty or new folder");
   }
+}
+
+// The shards read the same scene files, byte for byte: refused naming the first file that
+// differs (an edited box.mtl between two shards).
+void check_same_scene_files(const Shard& first, const Shard& s) {
+  auto files_of = [](const Shard& shard) {
+    auto it = shard.sweep.find("scene_files");
+    std::optional<std::vector<SourceFile>> files;
+    if (it != shard.sweep.end()) files = read_source_files(*it);
+    if (!files)
+      throw InputError(shard.dir +
+                       "/sweep.json: no readable 'scene_files' (written by an older radlab? run "
+                       "the shard again)");
+    return *files;
+  };
+  const std::string difference = scene_files_difference(files_of(first), files_of(s));
+  if (!difference.empty())
+    throw InputError("merge: " + s.dir + "/sweep.json against " + first.dir +
+                     "/sweep.json: " + difference +
+                     " between the shards: they computed on different versions "
+                     "of the scene (run the shards again on one version)");
 }
 
 // The shards are of one sweep: the same experiment, plan, build and columns, and one split.
@@ -184,6 +209,7 @@ void check_shards_agree(const std::vector<Shard>& shards) {
                          c.key + " '" + b + "' differs from " + first.dir + "/sweep.json ('" + a +
                          "'): " + c.meaning);
     }
+    check_same_scene_files(first, s);
     if (s.summary.header != first.summary.header)
       throw InputError(s.summary.path + ": summary columns differ from " + first.summary.path);
     if (s.trace.header != first.trace.header)
@@ -328,12 +354,19 @@ void write_merged_folder(const std::vector<Shard>& shards, const MergedSweep& me
   try {
     fs::remove_all(temp);
     fs::create_directories(temp);
+    // Locked too: renamed into place, its lock file is --out's, held until the merge is done.
+    SweepFolderLock temp_lock(temp);
     write_rows((temp / "summary.csv").string(), first.summary.header, merged.summary_rows);
     write_rows((temp / "trace.csv").string(), first.trace.header, merged.trace_rows);
-    for (const Shard& s : shards)
-      for (const char* folder : {"runs", "images", "coverage"}) copy_run_files(s, folder, temp);
+    for (const Shard& s : shards) copy_run_files(s, temp);
+    // The merged folder's own manifest, like a sweep's (a merged folder is a complete sweep).
+    Json sweep = merged.sweep;
+    Json files = Json::array();
+    for (const ManifestEntry& e : folder_manifest(temp))
+      files.push_back({{"path", e.path}, {"sha256", e.sha256}, {"bytes", e.bytes}});
+    sweep["files"] = files;
     JsonWriter json;
-    write_json_value(json, merged.sweep);
+    write_json_value(json, sweep);
     json.save((temp / "sweep.json").string());
     if (fs::exists(out)) {
       const fs::path old = out.string() + ".old." + std::to_string(::getpid());
@@ -405,7 +438,21 @@ size_t merge_shards(const std::vector<std::string>& dirs, const std::string& out
     for (const auto* t : by_run[(*row)[id_column]]) merged.trace_rows.push_back(t);
   }
   merged.sweep = merged_sweep_json(shards, run_ids, missing, missing_shards, options);
-  write_merged_folder(shards, merged, out, out_dir);
+
+  // The lock a `radlab run` takes: no run writes --out while the merge replaces it, and no merge
+  // replaces a folder a run is writing. Then the rule `radlab run` follows: another experiment's
+  // sweep (or a shard, or files that are no sweep) is replaced only with --overwrite. A folder
+  // created for the lock goes again if the merge fails.
+  std::error_code ec;
+  const bool created = !fs::exists(out, ec);
+  try {
+    SweepFolderLock lock(out);
+    check_replaceable(out, required(first, "name"), "0/1", options.overwrite, "merge");
+    write_merged_folder(shards, merged, out, out_dir);
+  } catch (...) {
+    if (created) fs::remove_all(out, ec);
+    throw;
+  }
   return ordered.size();
 }
 

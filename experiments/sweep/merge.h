@@ -13,6 +13,10 @@
 // Nothing half-written: everything is read and checked before anything is written; the result
 // is built in a temporary sibling of the output folder and renamed into place at the end. An
 // output folder equal to, inside, or containing a shard is refused.
+// Nothing damaged: each shard's files must match the manifest in its sweep.json (size and
+// SHA-256 of trace.csv, summary.csv and every file of runs/, images/, coverage/), and its
+// scene_files must equal the first shard's. The output folder is locked as `radlab run` locks
+// its folder, and replaced under run's rule (another experiment's sweep needs overwrite).
 #pragma once
 
 #include <string>
@@ -23,6 +27,9 @@ namespace radlab {
 struct MergeOptions {
   std::string command;  // goes into the merged sweep.json (empty: the first shard's command)
   bool allow_incomplete = false;
+  // Replace an --out that holds another experiment's sweep, a shard, or files that are no sweep
+  // (the rule of `radlab run --overwrite`); without it such a folder is refused.
+  bool overwrite = false;
 };
 
 // Returns the number of runs merged. Throws InputError for everything above, and UsageError for

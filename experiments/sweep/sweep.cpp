@@ -180,7 +180,8 @@ void write_sweep_json(const std::filesystem::path& out, const ExperimentSpec& sp
                       const SweepOptions& options, const SweepIdentity& identity, size_t runs_total,
                       const char* status, const std::vector<std::string>& run_ids,
                       const std::vector<RunFailure>& failures,
-                      const std::map<size_t, ProblemEntry>& problems) {
+                      const std::map<size_t, ProblemEntry>& problems,
+                      const std::vector<ManifestEntry>* manifest = nullptr) {
   JsonWriter sweep;
   sweep.begin_object();
   sweep.field("experiment", spec.path);
@@ -206,6 +207,7 @@ void write_sweep_json(const std::filesystem::path& out, const ExperimentSpec& sp
   for (const auto& [index, e] : problems) write_problem_entry(sweep, e);
   sweep.end_array();
   write_build_info(sweep);
+  if (manifest) write_manifest(sweep, *manifest);
   sweep.end_object();
   sweep.save((out / "sweep.json").string());
 }
@@ -274,7 +276,8 @@ struct CurrentProblem {
   ExitCode code = ExitCode::kOk;
   SpectralRadiusBounds spectral_radius{std::nan(""), std::nan("")};
 
-  void prepare(const ExperimentSpec& spec, const PlannedProblem& planned, size_t problem_index) {
+  void prepare(const ExperimentSpec& spec, const PlannedProblem& planned, size_t problem_index,
+               const std::vector<SourceFile>& scene_files) {
     problem.reset();
     images.reset();
     index = problem_index;
@@ -283,6 +286,13 @@ struct CurrentProblem {
     spectral_radius = {std::nan(""), std::nan("")};
     try {
       problem = prepare_run_problem(planned.spec, ReferenceChoice{}, spec.budget);
+      // The scene read now must be the one the sweep's identity names: an edit while the sweep
+      // runs would otherwise mix two versions of the scene in one "complete" sweep.
+      const std::string changed = scene_files_difference(scene_files, problem->scene().sources);
+      if (!changed.empty())
+        throw InputError(planned.spec.scene + ": " + changed +
+                         " while the sweep ran; its runs are not computed on a scene that is not "
+                         "the one the sweep started with (run the sweep again)");
       if (!spec.images.steps.empty()) images = std::make_unique<ImageMaker>(*problem, spec.images);
     } catch (const Error& e) {
       problem.reset();
@@ -294,6 +304,12 @@ struct CurrentProblem {
       images.reset();
       error = planned.label + ": out of memory (try a coarser mesh)";
       code = ExitCode::kNumerical;
+    } catch (const std::exception& e) {
+      // A form-factor method's plugin may throw anything: its problem's runs fail, not the sweep.
+      problem.reset();
+      images.reset();
+      error = planned.label + ": preparing the problem failed: " + e.what();
+      code = ExitCode::kNumerical;
     }
     if (!error.empty()) log::info("cannot prepare " + planned.label + ": " + error);
   }
@@ -303,9 +319,10 @@ struct CurrentProblem {
 // and its problem's sweep.json entry are taken from its run.json. Returns false if it is not
 // done.
 bool keep_completed_run(const std::filesystem::path& out, const SweepPlan& plan,
-                        const PlannedRun& run, const std::string& stem, SweepReport& report,
+                        const PlannedRun& run, const std::string& stem,
+                        const std::vector<SourceFile>& scene_files, SweepReport& report,
                         std::map<size_t, ProblemEntry>& problem_entries) {
-  std::optional<Json> done = completed_run(out, run, stem);
+  std::optional<Json> done = completed_run(out, run, stem, scene_files);
   if (!done) return false;
   ++report.runs_resumed;
   const Json& result = (*done)["run"];
@@ -518,10 +535,12 @@ SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
     shard_runs.push_back(run.index);
     run_ids.push_back(run.run_id);
     ++report.runs_done;
-    if (resume && keep_completed_run(out, plan, run, stem, report, problem_entries)) continue;
+    const PlannedProblem& planned = plan.problems[run.problem];
+    const std::vector<SourceFile>& scene_files = identity.scene_files.at(planned.spec.scene);
+    if (resume && keep_completed_run(out, plan, run, stem, scene_files, report, problem_entries))
+      continue;
     if (run.problem != current.index) {
-      const PlannedProblem& planned = plan.problems[run.problem];
-      current.prepare(spec, planned, run.problem);
+      current.prepare(spec, planned, run.problem, scene_files);
       problem_entries[run.problem] =
           problem_entry(run.problem, planned, current.problem.get(), current.error);
     }
@@ -530,10 +549,12 @@ SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
     run_one(spec, plan, run, stem, out, current, report);
   }
 
-  // trace.csv and summary.csv, then sweep.json says "complete", then the partial rows go.
+  // trace.csv and summary.csv, then sweep.json says "complete" with the manifest of every file
+  // (merge and the workflow check it), then the partial rows go.
   write_sweep_tables(out, shard_runs);
+  const std::vector<ManifestEntry> manifest = folder_manifest(out);
   write_sweep_json(out, spec, options, identity, plan.runs.size(), "complete", run_ids,
-                   report.failures, problem_entries);
+                   report.failures, problem_entries, &manifest);
   std::error_code ignored;
   fs::remove_all(partial_folder(out), ignored);
   return report;

@@ -22,6 +22,7 @@
 #include "core/limits.h"
 #include "core/log.h"
 #include "core/paths.h"
+#include "core/sha256.h"
 #include "core/text.h"
 #include "scene/cie_colour.h"
 #include "scene/geometry.h"
@@ -165,6 +166,8 @@ class Reader {
     while (in.read(chunk, sizeof chunk) || in.gcount() > 0) text.append(chunk, size_t(in.gcount()));
     // A failed read is not the end of the file.
     if (in.bad()) throw InputError(shown + ": read error" + include_chain());
+    // The digest of exactly the bytes parsed: a sweep's identity (Scene::sources).
+    scene_.sources.push_back(SourceFile{shown, sha256_hex(text)});
     auto file = std::make_unique<ParsedFile>();
     file->path = shown;
     file->folder = path.parent_path();

@@ -10,6 +10,7 @@
 #include "core/limits.h"
 #include "core/log.h"
 #include "core/paths.h"
+#include "core/sha256.h"
 #include "core/text.h"
 
 namespace radlab {
@@ -38,6 +39,10 @@ struct LineReader {
       if (in.bad()) throw InputError(path + ":" + std::to_string(number + 1) + ": read error");
       return false;
     }
+    // Hashed as read, newline included unless the file ended without one: the digest is the
+    // file's bytes (what `sha256sum` says), of exactly the text parsed.
+    hash.update(line);
+    if (!in.eof()) hash.update("\n");
     ++number;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     return true;
@@ -45,9 +50,12 @@ struct LineReader {
   [[noreturn]] void fail(const std::string& message) const {
     throw InputError(path + ":" + std::to_string(number) + ": " + message);
   }
+  // The file's SourceFile, once every line has been read.
+  SourceFile source() { return SourceFile{path, hash.hex()}; }
   std::string path;
   std::ifstream in;
   int number = 0;
+  Sha256 hash;
 };
 
 Rgb parse_rgb(const LineReader& reader, const std::vector<std::string_view>& tokens) {
@@ -78,7 +86,8 @@ bool known_mtl_key(std::string_view key) {
 // Unknown MTL keys warned about per file; more are ignored silently.
 constexpr size_t kMaxUnknownKeys = 8;
 
-void read_mtl(const std::string& path, Scene& scene, std::map<std::string, int>& by_name) {
+void read_mtl(const std::string& path, Scene& scene, std::map<std::string, int>& by_name,
+              bool print_warnings) {
   LineReader reader(path);
   std::string line;
   int current = -1;
@@ -108,7 +117,7 @@ void read_mtl(const std::string& path, Scene& scene, std::map<std::string, int>&
       if (key == "Ke" && !(c.x >= 0 && c.y >= 0 && c.z >= 0 && std::isfinite(c.x) &&
                            std::isfinite(c.y) && std::isfinite(c.z)))
         reader.fail("material '" + m.name + "': Ke (emission) must be finite and >= 0");
-    } else if (!known_mtl_key(key) && warned.size() < kMaxUnknownKeys &&
+    } else if (print_warnings && !known_mtl_key(key) && warned.size() < kMaxUnknownKeys &&
                warned.insert(std::string(key)).second) {
       // Everything else known (Ka, Ks, Ns, Ni, d, Tr, illum, map_*, ...) does not affect
       // diffuse radiosity. An unknown key is most likely a misspelling (MTL keys are
@@ -118,6 +127,7 @@ void read_mtl(const std::string& path, Scene& scene, std::map<std::string, int>&
                    shown(key) + "' ignored (keys are case-sensitive; radlab reads Kd and Ke)");
     }
   }
+  scene.sources.push_back(reader.source());
 }
 
 // The number of face statements ('f' as the first word of a line) in the file: one pass over
@@ -233,13 +243,15 @@ Scene read_obj(const std::string& path, const ObjOptions& options) {
           reader.fail("'mtllib': '" + lib.lexically_normal().string() +
                       "' lies outside the scene's folder " + root.string() +
                       " (to read it, name a folder that holds both with --mgf-include-root DIR)");
-        read_mtl(lib.string(), scene, by_name);
+        read_mtl(lib.string(), scene, by_name, options.print_warnings);
       }
     } else if (!ignored.count(key)) {
       reader.fail("unknown statement '" + std::string(key).substr(0, 24) + "'");
     }
   }
   if (scene.polygons.empty()) throw InputError(path + ": no faces ('f' lines) in the file");
+  // The OBJ first, then its material libraries in the order they were read.
+  scene.sources.insert(scene.sources.begin(), reader.source());
   return scene;
 }
 

@@ -17,6 +17,9 @@ struct ObjOptions {
   // Material libraries must resolve inside this folder (empty: the folder of the OBJ file); the
   // command line's --mgf-include-root, which confines MGF includes the same way.
   std::string include_root;
+  // Warn about unknown MTL statements (off when only the files read are wanted: a sweep's
+  // identity reads each scene once before its runs load it).
+  bool print_warnings = true;
 };
 
 // Reads an OBJ file (and the MTL libraries it names, relative to its folder).

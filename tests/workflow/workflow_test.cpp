@@ -2,9 +2,10 @@
 // prepare -> 3 shards -> merge gives the unsharded `radlab run`'s trace and summary (time columns
 // aside), two workflows sharing one empty cache at once leave it whole, a deleted shard is
 // recomputed alone (read from Snakemake's own job table), a shard killed mid-way resumes, an
-// edited experiment reruns everything, and a failing shard or preparation fails its job with
-// radlab's message. Skipped, saying so,
-// when snakemake is not installed (scripts/install-deps.sh installs it).
+// edited experiment reruns everything, an edited material reruns its preparation and every shard,
+// a shard whose summary.csv was cut is redone alone, and a failing shard or preparation fails its
+// job with radlab's message. Skipped, saying so, when snakemake is not installed
+// (scripts/install-deps.sh installs it).
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <sys/wait.h>
@@ -285,6 +286,71 @@ TEST(Workflow, AKilledShardResumesWhatItFinished) {
   const std::regex resumed_runs("resumed: ([12]) runs were already complete");
   EXPECT_TRUE(std::regex_search(text.str(), resumed_runs)) << text.str();
   EXPECT_EQ(read_csv(dir.file("out/slow/merged/summary.csv")).rows.size(), 6u);
+}
+
+TEST(Workflow, AnEditedMaterialOrACutShardRedoesTheShards) {
+  // Defects (issue 36.2, 36.5): box.mtl edited after a complete workflow, and the workflow said
+  // "Nothing to be done"; a shard's summary.csv cut, and every rerun failed in the merge.
+  if (!have_snakemake())
+    GTEST_SKIP() << "snakemake is not installed (scripts/install-deps.sh installs Debian's "
+                    "snakemake): the workflow is not tested";
+  TempDir dir;
+  dir.write("box.obj", testing::kBoxObj);
+  dir.write("box.mtl", testing::kBoxMtl);
+  const std::string toml = dir.write("box.toml", R"(name = "box"
+scenes = ["box.obj", "builtin:cube:rho=0.7"]
+subdiv = 2
+solvers = ["gauss-seidel", "jacobi"]
+[form_factors]
+rays = 4
+[budget]
+rows = 200
+)");
+  const std::string cache = dir.file("cache");
+  const std::string out = dir.file("out/box");
+  const Result first = shell(snakemake(dir.file("w"), toml, 2, dir.file("out"), cache));
+  ASSERT_EQ(first.code, 0) << first.output;
+
+  // A cut summary.csv (its last row gone): that shard is redone, then the merge, which holds
+  // every run again.
+  std::string summary;
+  {
+    std::ifstream in(out + "/shards/0/summary.csv", std::ios::binary);
+    std::stringstream text;
+    text << in.rdbuf();
+    summary = text.str();
+  }
+  summary.erase(summary.rfind('\n', summary.size() - 2) + 1);
+  std::ofstream(out + "/shards/0/summary.csv", std::ios::binary) << summary;
+  const auto shard1_time = fs::last_write_time(out + "/shards/1/summary.csv");
+  const Result cut = shell(snakemake(dir.file("w"), toml, 2, dir.file("out"), cache));
+  ASSERT_EQ(cut.code, 0) << cut.output;
+  EXPECT_NE(cut.output.find("shard 0: "), std::string::npos) << cut.output;
+  EXPECT_NE(cut.output.find("the shard is redone"), std::string::npos) << cut.output;
+  const std::map<std::string, int> redone = job_counts(cut.output);
+  EXPECT_EQ(jobs(redone, "shard"), 1) << cut.output;
+  EXPECT_EQ(jobs(redone, "merge"), 1) << cut.output;
+  EXPECT_EQ(fs::last_write_time(out + "/shards/1/summary.csv"), shard1_time);
+  EXPECT_EQ(read_csv(out + "/merged/summary.csv").rows.size(), 4u);
+
+  // An edited material: the box's preparation and every shard rerun (each shard's identity
+  // covers every scene file), then the merge.
+  std::string mtl = testing::kBoxMtl;
+  mtl.replace(mtl.find("Kd 0.5 0.5 0.5"), 14, "Kd 0.8 0.8 0.8");
+  std::ofstream(dir.file("box.mtl"), std::ios::binary) << mtl;
+  const Result edited = shell(snakemake(dir.file("w"), toml, 2, dir.file("out"), cache));
+  ASSERT_EQ(edited.code, 0) << edited.output;
+  const std::map<std::string, int> rerun = job_counts(edited.output);
+  EXPECT_EQ(jobs(rerun, "prepare"), 1) << edited.output;  // the box's problem, not the cube's
+  EXPECT_EQ(jobs(rerun, "shard"), 2) << edited.output;
+  EXPECT_EQ(jobs(rerun, "merge"), 1) << edited.output;
+  std::ifstream merged(out + "/merged/sweep.json");
+  std::stringstream merged_text;
+  merged_text << merged.rdbuf();
+  const Result sha = shell("sha256sum " + dir.file("box.mtl"));
+  ASSERT_EQ(sha.code, 0);
+  EXPECT_NE(merged_text.str().find(sha.output.substr(0, 64)), std::string::npos)
+      << merged_text.str();
 }
 
 TEST(Workflow, FailuresFailTheirJobWithRadlabsMessage) {

@@ -1,0 +1,87 @@
+// Limits that limit (issue 36.7): `memory_gb` is checked against everything a preparation holds
+// at its peak, not the solvers' matrix alone, and `radlab prepare --plan` counts the hemicube's
+// buffers, which grow with R^2 per thread (at R 2048 the plan said 257 MB and the process took
+// 408 MB). The estimate must bound what the process measures: its peak resident size, read from
+// GNU time (deterministic to a few MB; no timing is involved).
+#include "experiments/problem/preparation_estimate.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/json_reader.h"
+#include "core/limits.h"
+#include "experiments/problem/problem.h"
+#include "tests/test_support.h"
+
+namespace radlab {
+namespace {
+
+using testing::TempDir;
+
+TEST(PreparationEstimate, MemoryLimitCountsTheFloatCopyTheReferenceAndTheMethod) {
+  // Cornell box at subdiv 4: 320 elements, whose float matrix is 0.4 MB; the preparation holds
+  // the double matrix, its float rounding and the reference's LU beside it, and the program.
+  ProblemSpec spec;
+  spec.scene = "builtin:cornell";
+  spec.mesh.subdivisions = 4;
+  spec.use_cache = false;
+  const PreparationEstimate e = estimate_preparation(spec, 320, 2);
+  const double n2 = 320.0 * 320.0;
+  EXPECT_EQ(e.matrix_bytes, 8 * n2);
+  EXPECT_EQ(e.float_bytes, 4 * n2);
+  EXPECT_EQ(e.reference_bytes, 8 * n2);
+  EXPECT_EQ(e.method_bytes, 0.0);  // raycast keeps nothing that grows with a parameter
+  const double saved = limits().memory_gb;
+  limits().memory_gb = 0.05;  // 50 MB: 100 times the float matrix, below the whole preparation
+  try {
+    testing::expect_error<InputError>([&] { prepare_problem(spec); },
+                                      {"320 elements", "reference LU", "--limits memory_gb="});
+  } catch (...) {
+    limits().memory_gb = saved;
+    throw;
+  }
+  limits().memory_gb = saved;
+  // The hemicube's buffers: 3R^2 pixels of 8 bytes per thread, and its weights twice.
+  spec.ff_method = "hemicube";
+  spec.ff_set = {"resolution=2048"};
+  const double pixels = 3.0 * 2048 * 2048;
+  EXPECT_EQ(estimate_preparation(spec, 320, 2).method_bytes, pixels * (8 * 2 + 16));
+  spec.ff_set = {};  // the method's default, 150
+  EXPECT_EQ(estimate_preparation(spec, 320, 1).method_bytes, 3.0 * 150 * 150 * (8 + 16));
+}
+
+TEST(PreparationEstimate, ThePlanBoundsThePeakOfAHemicubeAtResolution2048) {
+  if (!std::filesystem::exists("/usr/bin/time")) GTEST_SKIP() << "GNU time is not installed";
+  TempDir dir;
+  // 6 elements, so the buffers are nearly all the memory: one thread's 3 x 2048^2 pixels.
+  const std::string toml = dir.write("e.toml", R"(name = "r2048"
+scenes = ["builtin:cube"]
+solvers = ["jacobi"]
+[form_factors]
+method = "hemicube"
+resolution = 2048
+[budget]
+rows = 10
+)");
+  const std::string cache = "RADLAB_CACHE_DIR=" + dir.file("cache") + " ";
+  const std::string radlab = std::string(RADLAB_BINARY) + " -q --threads 1 prepare " + toml;
+  const testing::CommandResult plan = testing::run_command(cache + radlab + " --plan 2>/dev/null");
+  ASSERT_EQ(plan.code, 0) << plan.output;
+  const double planned_mb =
+      parse_json(plan.output, "the plan")["problems"][0]["memory_mb"].get<double>();
+  const testing::CommandResult run =
+      testing::run_command(cache + "/usr/bin/time -f 'peak_kb %M' " + radlab);
+  ASSERT_EQ(run.code, 0) << run.output;
+  const size_t at = run.output.rfind("peak_kb ");
+  ASSERT_NE(at, std::string::npos) << run.output;
+  const double peak_mb = std::stod(run.output.substr(at + 8)) * 1024.0 / 1e6;
+  // The buffers alone are 302 MB: above the 257 MB the plan used to say.
+  EXPECT_GT(peak_mb, 3.0 * 2048 * 2048 * 24 / 1e6);
+  EXPECT_LE(peak_mb, planned_mb) << "the plan's memory_mb does not bound the measured peak";
+}
+
+}  // namespace
+}  // namespace radlab
