@@ -100,83 +100,102 @@ bool degenerate(const std::vector<Vec3>& v) {
 
 }  // namespace
 
+namespace {
+
+// What no repair can fix, refused before any all-pairs geometry (diameter, triangulation) runs on
+// the polygon: a material that does not exist, more corners than kMaxPolygonCorners, a coordinate
+// that is not finite or beyond kMaxCoordinate.
+void refuse_unusable(const Scene& scene, const Polygon& polygon) {
+  if (polygon.material < 0 || size_t(polygon.material) >= scene.materials.size())
+    throw InputError(polygon.origin + ": polygon refers to a material that does not exist");
+  if (polygon.vertices.size() > kMaxPolygonCorners)
+    throw InputError(polygon.origin + ": polygon has " + std::to_string(polygon.vertices.size()) +
+                     " corners; radlab accepts at most " + std::to_string(kMaxPolygonCorners) +
+                     " (split it into smaller polygons)");
+  for (const Vec3& p : polygon.vertices)
+    if (!(std::abs(p.x) <= kMaxCoordinate && std::abs(p.y) <= kMaxCoordinate &&
+          std::abs(p.z) <= kMaxCoordinate))
+      throw InputError(polygon.origin + ": polygon has a vertex coordinate that is not finite " +
+                       "or beyond 1e12 m (areas and kernels would overflow)");
+}
+
+// A non-planar or non-convex polygon (corners v, area `read`) split into `pieces`, kept, and
+// accounted for: the pieces' areas projected on the polygon's plane add up to the polygon's
+// (Newell's vector is additive over any subdivision, planar or not; a piece wound the wrong way
+// subtracts), so a difference beyond rounding is area the split lost (or invented), and named.
+void keep_pieces(const Polygon& polygon, const std::vector<Vec3>& v, double read,
+                 std::vector<std::vector<Vec3>> pieces, const std::string& what,
+                 ValidationReport& report, std::vector<Polygon>& kept) {
+  ++report.triangulated;
+  std::erase_if(pieces, [](const std::vector<Vec3>& piece) { return degenerate(piece); });
+  const Vec3 normal = geometry::unit_normal(v);
+  double projected = 0.0, surface = 0.0;
+  for (const auto& piece : pieces) {
+    projected += 0.5 * glm::dot(geometry::newell_vector(piece), normal);
+    surface += geometry::area(piece);
+  }
+  report.area.kept_before_overlaps += surface;
+  report.area.non_planar_surplus += surface - projected;
+  if (std::abs(projected - read) > kAreaTolerance * read) {
+    report.area.split_lost += read - projected;
+    report.warnings.push_back(polygon.origin + what + std::to_string(pieces.size()) +
+                              " triangles covering " + text::format_double(projected) + " of its " +
+                              text::format_double(read) + " m^2 (" +
+                              text::format_double(std::abs(read - projected)) + " m^2 " +
+                              (read > projected ? "lost)" : "more)"));
+  } else {
+    report.warnings.push_back(polygon.origin + what + std::to_string(pieces.size()) + " triangles");
+  }
+  for (auto& piece : pieces)
+    kept.push_back(Polygon{std::move(piece), polygon.material, polygon.origin});
+}
+
+// One polygon read: dropped (degenerate), refused (self-intersecting), kept as it is, or split
+// into triangles (non-planar, non-convex), with its area in the account.
+void validate_polygon(Polygon& polygon, ValidationReport& report, std::vector<Polygon>& kept) {
+  const double read = geometry::area(polygon.vertices);
+  report.area.read += read;
+  std::vector<Vec3> v = merge_repeated(polygon.vertices);
+  if (degenerate(v)) {
+    report.warnings.push_back(polygon.origin + ": zero-area or degenerate polygon (" +
+                              std::to_string(polygon.vertices.size()) + " vertices, " +
+                              text::format_double(read) + " m^2) dropped");
+    ++report.dropped;
+    report.area.dropped += read;
+    return;
+  }
+  size_t first = 0, second = 0;
+  if (self_intersecting(v, first, second))
+    throw InputError(polygon.origin + ": self-intersecting polygon (its edges " +
+                     std::to_string(first + 1) + " and " + std::to_string(second + 1) +
+                     " cross); split it into simple polygons");
+  const double defect = geometry::planarity_defect(v);
+  const double diameter = geometry::diameter(v);
+  if (defect > kPlanarityTolerance * diameter) {
+    keep_pieces(polygon, v, read, split_non_planar(v),
+                ": non-planar polygon (off its plane by " + std::to_string(defect) + " m, " +
+                    std::to_string(defect / diameter) + " of its size) split into ",
+                report, kept);
+  } else if (!geometry::is_convex(v)) {
+    keep_pieces(polygon, v, read, triangulate_polygon(v), ": non-convex polygon split into ",
+                report, kept);
+  } else {
+    report.area.kept_before_overlaps += read;
+    polygon.vertices = std::move(v);
+    kept.push_back(std::move(polygon));
+  }
+}
+
+}  // namespace
+
 ValidationReport validate_scene(Scene& scene, bool keep_overlaps) {
   ValidationReport report;
   for (const Material& m : scene.materials) check_material(m);
   std::vector<Polygon> kept;
   kept.reserve(scene.polygons.size());
   for (Polygon& polygon : scene.polygons) {
-    if (polygon.material < 0 || size_t(polygon.material) >= scene.materials.size())
-      throw InputError(polygon.origin + ": polygon refers to a material that does not exist");
-    // Bounded before any all-pairs geometry (diameter, ear clipping) runs on it.
-    if (polygon.vertices.size() > kMaxPolygonCorners)
-      throw InputError(polygon.origin + ": polygon has " + std::to_string(polygon.vertices.size()) +
-                       " corners; radlab accepts at most " + std::to_string(kMaxPolygonCorners) +
-                       " (split it into smaller polygons)");
-    for (const Vec3& p : polygon.vertices)
-      if (!(std::abs(p.x) <= kMaxCoordinate && std::abs(p.y) <= kMaxCoordinate &&
-            std::abs(p.z) <= kMaxCoordinate))
-        throw InputError(polygon.origin + ": polygon has a vertex coordinate that is not finite " +
-                         "or beyond 1e12 m (areas and kernels would overflow)");
-    const double read = geometry::area(polygon.vertices);
-    report.area.read += read;
-    std::vector<Vec3> v = merge_repeated(polygon.vertices);
-    if (degenerate(v)) {
-      report.warnings.push_back(polygon.origin + ": zero-area or degenerate polygon (" +
-                                std::to_string(polygon.vertices.size()) + " vertices, " +
-                                text::format_double(read) + " m^2) dropped");
-      ++report.dropped;
-      report.area.dropped += read;
-      continue;
-    }
-    size_t first = 0, second = 0;
-    if (self_intersecting(v, first, second))
-      throw InputError(polygon.origin + ": self-intersecting polygon (its edges " +
-                       std::to_string(first + 1) + " and " + std::to_string(second + 1) +
-                       " cross); split it into simple polygons");
-    double defect = geometry::planarity_defect(v);
-    double diameter = geometry::diameter(v);
-    std::vector<std::vector<Vec3>> pieces;
-    std::string what;
-    if (defect > kPlanarityTolerance * diameter) {
-      pieces = split_non_planar(v);
-      what = ": non-planar polygon (off its plane by " + std::to_string(defect) + " m, " +
-             std::to_string(defect / diameter) + " of its size) split into ";
-    } else if (!geometry::is_convex(v)) {
-      pieces = triangulate_polygon(v);
-      what = ": non-convex polygon split into ";
-    } else {
-      report.area.kept_before_overlaps += read;
-      polygon.vertices = std::move(v);
-      kept.push_back(std::move(polygon));
-      continue;
-    }
-    ++report.triangulated;
-    std::erase_if(pieces, [](const std::vector<Vec3>& piece) { return degenerate(piece); });
-    // The pieces' areas projected on the polygon's plane add up to the polygon's (Newell's
-    // vector is additive over any subdivision, planar or not); a piece wound the wrong way
-    // subtracts. Differences beyond rounding are area the split lost (or invented).
-    const Vec3 normal = geometry::unit_normal(v);
-    double projected = 0.0, surface = 0.0;
-    for (const auto& piece : pieces) {
-      projected += 0.5 * glm::dot(geometry::newell_vector(piece), normal);
-      surface += geometry::area(piece);
-    }
-    report.area.kept_before_overlaps += surface;
-    report.area.non_planar_surplus += surface - projected;
-    if (std::abs(projected - read) > kAreaTolerance * read) {
-      report.area.split_lost += read - projected;
-      report.warnings.push_back(polygon.origin + what + std::to_string(pieces.size()) +
-                                " triangles covering " + text::format_double(projected) +
-                                " of its " + text::format_double(read) + " m^2 (" +
-                                text::format_double(std::abs(read - projected)) + " m^2 " +
-                                (read > projected ? "lost)" : "more)"));
-    } else {
-      report.warnings.push_back(polygon.origin + what + std::to_string(pieces.size()) +
-                                " triangles");
-    }
-    for (auto& piece : pieces)
-      kept.push_back(Polygon{std::move(piece), polygon.material, polygon.origin});
+    refuse_unusable(scene, polygon);
+    validate_polygon(polygon, report, kept);
   }
   scene.polygons = std::move(kept);
   if (!scene.polygons.empty()) {
