@@ -1,8 +1,5 @@
-# Whether the Python module (python/) is built, decided before the libraries are defined: the
-# module is a shared library that links radlab's static libraries, so they must then be compiled
-# as position-independent code (Debian's GCC defaults to -fPIE, which a shared library cannot
-# take). -fno-semantic-interposition keeps GCC inlining and optimising calls within a library as
-# it does for -fPIE (no symbol of radlab is meant to be interposed).
+# Whether the Python module (python/) is built: RADLAB_PYTHON, ON when pybind11 and a python3
+# with numpy are found (python/CMakeLists.txt builds it).
 #
 # The interpreter is the first python3 that imports numpy: the first `python3` on some machines'
 # PATH (a pyenv shim) lacks Debian's numpy, which the module's tests and notebooks need. Pass
@@ -36,7 +33,5 @@ if(RADLAB_PYTHON)
   if(NOT pybind11_FOUND)
     message(FATAL_ERROR "RADLAB_PYTHON needs pybind11 (apt-get install pybind11-dev python3-dev)")
   endif()
-  set(CMAKE_POSITION_INDEPENDENT_CODE ON)
-  add_compile_options($<$<CXX_COMPILER_ID:GNU>:-fno-semantic-interposition>)
   message(STATUS "Python module: ${Python_EXECUTABLE} (pybind11 ${pybind11_VERSION})")
 endif()

@@ -14,13 +14,15 @@ subclass radlab.Solver.
 
 from ._radlab import (Error, InputError, NumericalError, ToleranceNotReached, UsageError,
                       __version__)
-from .scene import Scene, load
+from .scene import Scene, load, load_dict
 from .matrices import Reference, errors, form_factors, reference
-from .run import Result, solve, solvers, trace_columns, time_columns
+from .run import (Experiment, Result, run_experiment, solve, solvers, time_columns,
+                  trace_columns)
 from .solver import Solver, register_solver
 
 __all__ = [
     "Error", "InputError", "NumericalError", "ToleranceNotReached", "UsageError", "__version__",
-    "Scene", "load", "Reference", "errors", "form_factors", "reference", "Result", "solve",
+    "Scene", "load", "load_dict", "Reference", "errors", "form_factors", "reference", "Result", "solve",
+    "Experiment", "run_experiment",
     "solvers", "trace_columns", "time_columns", "Solver", "register_solver",
 ]

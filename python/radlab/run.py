@@ -2,6 +2,7 @@
 
 import os
 import tempfile
+import time
 
 import numpy as np
 
@@ -37,7 +38,11 @@ class Result:
     rms_rel, p_mean, p_max, bound_relative: the final errors against the reference;
     tolerance_asked / tolerance_reached / tolerance_message: with tol=, whether it was reached
     (the command line exits 5 when not; here the result says it);
-    statistics: the solver's own counters; run_id: as in trace.csv.
+    statistics: the solver's own counters; run_id: as in trace.csv;
+    run_wall_seconds: wall time of the run in C++ (execute_run, checkpoints' metrics and trace
+    included); boundary_seconds: of it, the time at the Python boundary at checkpoints (taking
+    the GIL, Ctrl-C check, callback); python_seconds: the rest of radlab.solve (request, problem
+    lookup, result and trace conversion; the problem's first preparation included).
     """
 
     def __init__(self, fields, trace):
@@ -137,11 +142,39 @@ def solve(scene, solver="gauss-seidel", *, steps=None, rows=None, seconds=None, 
         if json is None:
             json = os.path.splitext(a.trace)[0] + ".run.json"
     a.json = "" if json is None else _checks.path("json", json)
+    start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="radlab-trace-") as folder:
         if not a.trace:
             # The trace is always written by radlab's TraceWriter and read back: one writer, the
             # same columns and digits as trace.csv (a documented copy).
             a.trace = os.path.join(folder, "trace.csv")
+            a.announce = not (a.out or a.image or a.json)
         fields = _radlab.solve(handle, a, callback)
         frame = _read_trace(a.trace)
+    fields["python_seconds"] = time.perf_counter() - start - fields["run_wall_seconds"]
     return Result(fields, frame)
+
+
+class Experiment:
+    """A finished sweep (`radlab run`): summary and trace as DataFrames (summary.csv and
+    trace.csv of `out`, docs/outputs.md), `failures` as (run_id, exit_code, message) of the runs
+    that failed (the others finished; the command line would exit with `exit_code`)."""
+
+    def __init__(self, fields):
+        import pandas as pd
+        self.__dict__.update(fields)
+        read = dict(float_precision="round_trip", keep_default_na=False, na_values=[""])
+        self.summary = pd.read_csv(os.path.join(self.out, "summary.csv"), **read)
+        self.trace = pd.read_csv(os.path.join(self.out, "trace.csv"), **read)
+
+    def __repr__(self):
+        return (f"radlab.Experiment({self.out}: {self.runs_done} of {self.runs_total} runs, "
+                f"{len(self.failures)} failed)")
+
+
+def run_experiment(path, out=None, overwrite=False):
+    """Runs an experiment file (`radlab run PATH --out OUT`, docs/experiments.md) in this process,
+    so solvers registered from Python may be named in it. Returns an Experiment."""
+    path = _checks.path("path", path)
+    out = "" if out is None else _checks.path("out", out)
+    return Experiment(_radlab.run_experiment(path, out, bool(overwrite)))

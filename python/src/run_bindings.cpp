@@ -7,11 +7,14 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <chrono>
 #include <optional>
 
 #include "core/error.h"
+#include "experiments/run/report_page.h"
 #include "experiments/run/run_request.h"
 #include "experiments/sweep/experiment_spec.h"
+#include "experiments/sweep/sweep.h"
 #include "python/src/arrays.h"
 #include "python/src/bindings.h"
 #include "python/src/scene_handle.h"
@@ -36,6 +39,7 @@ struct SolveArguments {
   std::string trace, out, image, json;
   int width = 512, height = 512;
   bool display_image = true;
+  bool announce = true;  // log each file written (not the temporary trace radlab.solve reads)
 };
 
 // The budget, checked with the command line's rules (budget_violation) in Python's words.
@@ -78,6 +82,7 @@ RunRequest request_of(const SceneHandle& scene, const SolveArguments& a) {
   request.outputs.height = a.height;
   request.outputs.display_image = a.display_image;
   request.outputs.json = a.json;
+  request.outputs.announce = a.announce;
   return request;
 }
 
@@ -107,19 +112,26 @@ py::dict result_of(const RunOutcome& run) {
 }
 
 // The hook of a run from Python: Ctrl-C first, then the callback with this checkpoint's state.
-CheckpointHook python_hook(const Problem*& problem, py::object callback) {
-  return [&problem, callback](long long step, const Solver& solver) {
-    py::gil_scoped_acquire gil;
-    if (PyErr_CheckSignals() != 0) throw py::error_already_set();
-    if (callback.is_none()) return;
-    const System& system = *problem->system;
-    py::dict checkpoint;
-    checkpoint["step"] = step;
-    checkpoint["rows"] = system.rows_used();
-    checkpoint["pair_evaluations"] = system.pair_evaluations();
-    checkpoint["rays"] = system.rays_used();
-    checkpoint["B"] = rgb_array(solver.solution());
-    callback(checkpoint);
+// `seconds` accumulates the wall time spent in it (taking the GIL included): the boundary's cost
+// at checkpoints, reported as Result.boundary_seconds.
+CheckpointHook python_hook(const Problem*& problem, py::object callback, double& seconds) {
+  return [&problem, callback, &seconds](long long step, const Solver& solver) {
+    const auto start = std::chrono::steady_clock::now();
+    {
+      py::gil_scoped_acquire gil;
+      if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+      if (!callback.is_none()) {
+        const System& system = *problem->system;
+        py::dict checkpoint;
+        checkpoint["step"] = step;
+        checkpoint["rows"] = system.rows_used();
+        checkpoint["pair_evaluations"] = system.pair_evaluations();
+        checkpoint["rays"] = system.rays_used();
+        checkpoint["B"] = rgb_array(solver.solution());
+        callback(checkpoint);
+      }
+    }
+    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   };
 }
 
@@ -132,15 +144,22 @@ py::dict solve(SceneHandle& scene, const SolveArguments& arguments, py::object c
     make_solver(request.solver, parameters);
   }
   const Problem* problem = nullptr;
-  request.hook = python_hook(problem, std::move(callback));
+  double hook_seconds = 0.0, run_seconds = 0.0;
+  request.hook = python_hook(problem, std::move(callback), hook_seconds);
   std::optional<RunOutcome> run;
   {
     py::gil_scoped_release release;
     problem = &scene.run_problem(request.reference, request.budget);
+    const auto start = std::chrono::steady_clock::now();
     run = execute_run(request, *problem);
+    run_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   }
   py::dict out = result_of(*run);
   out["run_id"] = request.labels.run_id;
+  // Wall time of execute_run (the run as `radlab solve` runs it, with the hooks) and of the
+  // hooks alone.
+  out["run_wall_seconds"] = run_seconds;
+  out["boundary_seconds"] = hook_seconds;
   {
     // The solver (a Python one holds Python objects) goes with the GIL held.
     RunOutcome finished = std::move(*run);
@@ -172,8 +191,39 @@ void bind_run(py::module_& m) {
       .def_readwrite("json", &SolveArguments::json)
       .def_readwrite("width", &SolveArguments::width)
       .def_readwrite("height", &SolveArguments::height)
-      .def_readwrite("display_image", &SolveArguments::display_image);
+      .def_readwrite("display_image", &SolveArguments::display_image)
+      .def_readwrite("announce", &SolveArguments::announce);
   m.def("solve", &solve, py::arg("scene"), py::arg("arguments"), py::arg("callback"));
+
+  // `radlab run FILE --out OUT`: the sweep, then its report page. Failed runs do not raise (as
+  // there, the others finish); the report lists them with their exit codes.
+  m.def(
+      "run_experiment",
+      [](const std::string& path, const std::string& out, bool overwrite) {
+        const ExperimentSpec spec = read_experiment(path);
+        SweepOptions options;
+        options.out_dir = out.empty() ? "out/" + spec.name : out;
+        options.command = "radlab.run_experiment (Python)";
+        options.overwrite = overwrite;
+        SweepReport report;
+        {
+          py::gil_scoped_release release;
+          report = run_sweep(spec, options);
+          write_report_page(options.out_dir);
+        }
+        py::dict result;
+        result["out"] = options.out_dir;
+        result["runs_done"] = report.runs_done;
+        result["runs_total"] = report.runs_total;
+        result["runs_resumed"] = report.runs_resumed;
+        result["exit_code"] = report.exit_code();
+        py::list failures;
+        for (const RunFailure& f : report.failures)
+          failures.append(py::make_tuple(f.run_id, int(f.code), f.message));
+        result["failures"] = failures;
+        return result;
+      },
+      py::arg("path"), py::arg("out"), py::arg("overwrite"));
 
   // The trace's columns from its table (experiments/run/columns.h): name, meaning, and whether the
   // value measures the machine (time columns, left out when runs are compared).

@@ -121,3 +121,35 @@ def test_ctrl_c_mid_solve_raises_and_writes_nothing(cornell4, tmp_path):
         timer.cancel()
     assert not trace.exists()
     assert not [p for p in os.listdir(tmp_path)], "a temporary or partial file was left"
+
+
+def box(**changes):
+    from test_api import BOX_FACES, BOX_VERTICES
+    scene = {"vertices": BOX_VERTICES, "polygons": BOX_FACES, "rho": np.full(6, 0.5),
+             "E": np.ones(6)}
+    scene.update(changes)
+    return scene
+
+
+def test_bad_arrays_in_a_scene_dict():
+    from test_api import BOX_VERTICES
+    with pytest.raises(TypeError, match="vertices: expected a numpy float64 array, got list"):
+        radlab.load_dict(box(vertices=BOX_VERTICES.tolist()))
+    with pytest.raises(TypeError, match="vertices: .*got dtype float32"):
+        radlab.load_dict(box(vertices=BOX_VERTICES.astype(np.float32)))
+    with pytest.raises(ValueError, match=r"vertices: expected shape \(N, 3\), got \(3, 8\)"):
+        radlab.load_dict(box(vertices=BOX_VERTICES.T.copy()))
+    nan = BOX_VERTICES.copy()
+    nan[5, 2] = np.nan
+    with pytest.raises(ValueError, match="vertices: row 5, column 2 is nan"):
+        radlab.load_dict(box(vertices=nan))
+    with pytest.raises(ValueError, match=r"rho: expected shape \(6, 3\) or \(6,\), got \(5,\)"):
+        radlab.load_dict(box(rho=np.full(5, 0.5)))
+    with pytest.raises(ValueError, match="rho: polygon 0 has reflectance .*outside"):
+        radlab.load_dict(box(rho=np.array([1.5, .5, .5, .5, .5, .5])))
+    with pytest.raises(ValueError, match="E: polygon 2 has emission .*below 0"):
+        radlab.load_dict(box(E=np.array([1., 1., -1., 1., 1., 1.])))
+    with pytest.raises(ValueError, match=r"polygons\[1\]: vertex index 8 out of range"):
+        radlab.load_dict(box(polygons=[[0, 1, 3, 2], [4, 6, 7, 8]]))
+    with pytest.raises(ValueError, match="keys must be exactly"):
+        radlab.load_dict({"vertices": BOX_VERTICES})

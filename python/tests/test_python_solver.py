@@ -92,3 +92,29 @@ def test_registered_python_solver_is_listed_with_its_defaults():
     table = radlab.solvers().set_index("name")
     assert table.loc["py-southwell", "kind"] == "shooting"
     assert table.loc["py-southwell", "parameters"] == {"omega": "1"}
+
+
+def test_a_python_solver_runs_in_an_experiment(tmp_path):
+    # Registered in this process, the solver is named in an experiment file like a built-in one;
+    # the sweep shares the scene's matrix and reference among its runs.
+    class SweepSouthwell(NumpySouthwell):
+        name = "py-southwell-sweep"
+
+    radlab.register_solver(SweepSouthwell)
+    experiment = tmp_path / "e.toml"
+    experiment.write_text('name = "py"\nscenes = ["builtin:cube"]\nsubdiv = 3\n'
+                          'solvers = ["sorted-shooting", "py-southwell-sweep"]\n'
+                          '[budget]\nsteps = 400\n')
+    e = radlab.run_experiment(experiment, out=tmp_path / "out")
+    assert e.failures == [] and e.runs_done == 2
+    summary = e.summary.set_index("solver")
+    # Both shoot the largest unshot power, one row a step: after 400 steps (7 sweeps of the
+    # 54-element cube, rho 0.5: unshot power falls by about half a sweep) both are at least
+    # 100 times below the error at step 0.
+    first = e.trace[(e.trace["step"] == 0) & (e.trace["channel"] == "mean")]
+    for solver in ["sorted-shooting", "py-southwell-sweep"]:
+        assert summary.loc[solver, "ff_rows"] == 400
+        start = first[first["solver"] == solver]["rms_rel"].iloc[0]
+        assert summary.loc[solver, "rms_rel"] < start / 100
+    assert list(e.trace.columns) == [name for name, _, _ in radlab.trace_columns()]
+    assert set(e.trace["solver"]) == {"sorted-shooting", "py-southwell-sweep"}
