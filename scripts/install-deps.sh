@@ -4,7 +4,8 @@
 #                                  libraries radlab links, and python3 with what the plots use
 #   scripts/install-deps.sh test   main's packages and what the tests, benchmarks and style
 #                                  check add (GoogleTest, Google Benchmark, clang-format,
-#                                  Snakemake for the workflow test)
+#                                  Snakemake for the workflow test, pybind11 and pytest for
+#                                  the Python module)
 #   scripts/install-deps.sh        both (the same as test)
 # Idempotent: installs only what is missing, and does nothing (not even apt-get update) when
 # everything is present. Needs root for apt-get; as another user it uses sudo when available,
@@ -23,6 +24,10 @@ main_packages=(
 test_packages=(
   libgtest-dev libbenchmark-dev clang-format
   snakemake  # workflow/Snakefile and its test (76 packages, 682 MB with python3-azure)
+  # The Python module (python/, docs/python.md): pybind11 to build it, scipy for its matrices,
+  # pytest and nbconvert/ipykernel for its tests and notebooks.
+  pybind11-dev python3-pybind11 python3-dev python3-scipy python3-pytest python3-nbconvert
+  python3-ipykernel
 )
 
 case "${1:-test}" in
