@@ -54,10 +54,13 @@ TEST(ExperimentSpec, AllMeansEveryRegisteredSolver) {
   ExperimentSpec spec =
       read_experiment(dir.write("e.toml", "scenes = [\"builtin:cube\"]\nsolvers = [\"all\"]\n"));
   // One level: every registered solver but adaptive-shooting, which needs patches (two levels
-  // narrow "all" differently: tests/solvers/two_level/two_level_test.cpp), and stochastic-jacobi,
-  // which a shared budget in rows would never end (needs_step_or_time_budget).
-  EXPECT_EQ(spec.solvers.size(), solver_registry().size() - 2);
-  for (const SolverSweep& s : spec.solvers) EXPECT_NE(s.name, "stochastic-jacobi");
+  // narrow "all" differently: tests/solvers/two_level/two_level_test.cpp), and the Monte Carlo
+  // solvers, which a shared budget in rows would never end (needs_step_or_time_budget).
+  EXPECT_EQ(spec.solvers.size(), solver_registry().size() - 3);
+  for (const SolverSweep& s : spec.solvers) {
+    EXPECT_NE(s.name, "stochastic-jacobi");
+    EXPECT_NE(s.name, "random-walk");
+  }
 }
 
 TEST(ExperimentSpec, ErrorsNameFileAndLine) {
