@@ -88,11 +88,17 @@ struct RandomWalkOptions {
     o.seed = bag.get_int("seed", o.seed);
     if (o.seed < 0)
       throw UsageError("random-walk: seed must be >= 0, got " + std::to_string(o.seed));
-    // Every walk casts one ray at least: the step's rays are at least `paths`.
-    check_limit("rays", double(o.paths),
-                "random-walk: paths=" + std::to_string(o.paths) +
-                    " walks per step (each casts one ray at least)");
+    // A value given is checked here, before any work; the default (no key: also the registry's
+    // reading of the defaults, which must not fail) at init().
+    if (bag.has("paths")) o.check_rays_limit();
     return o;
+  }
+
+  // Every walk casts one ray at least: the step's rays are at least `paths`.
+  void check_rays_limit() const {
+    check_limit("rays", double(paths),
+                "random-walk: paths=" + std::to_string(paths) +
+                    " walks per step (each casts one ray at least)");
   }
 
   Estimator kind() const {
@@ -118,6 +124,7 @@ class RandomWalkSolver final : public Solver {
       : o_(std::move(options)), estimator_(o_.kind()), shooting_(o_.walks == "shooting") {}
 
   void init(const System& system) override {
+    o_.check_rays_limit();
     system_ = &system;
     const size_t n = system.size();
     channels_ = system.channels();

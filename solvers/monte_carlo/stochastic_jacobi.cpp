@@ -89,9 +89,15 @@ struct StochasticJacobiOptions {
     o.sequence = bag.get_choice("sequence", o.sequence, {"pseudo", "sobol"});
     o.seed = bag.get_int("seed", o.seed);
     o.validate();
-    check_limit("rays", double(o.rays),
-                "stochastic-jacobi: rays=" + std::to_string(o.rays) + " rays per step");
+    // A value given is checked here, before any work; the default (no key: also the registry's
+    // reading of the defaults, which must not fail) at init().
+    if (bag.has("rays")) o.check_rays_limit();
     return o;
+  }
+
+  void check_rays_limit() const {
+    check_limit("rays", double(rays),
+                "stochastic-jacobi: rays=" + std::to_string(rays) + " rays per step");
   }
 
   void validate() {
@@ -141,6 +147,7 @@ class StochasticJacobiSolver final : public Solver {
   explicit StochasticJacobiSolver(StochasticJacobiOptions options) : o_(std::move(options)) {}
 
   void init(const System& system) override {
+    o_.check_rays_limit();
     system_ = &system;
     rays_tracer_ = std::make_unique<ElementRays>(system.mesh());
     propagation_ =
