@@ -22,7 +22,9 @@ ElementRays::ElementRays(const Mesh& mesh)
   // there (as the raycast form factors do), a millionth of the scene's size.
   t_near_ = mesh.vertices.empty() ? 0.0 : 1e-6 * glm::length(high - low);
   sources_.resize(mesh.size());
+  targets_.resize(mesh.size());
   for (size_t e = 0; e < mesh.size(); ++e) {
+    targets_[e] = {mesh.normal[e], mesh.polygon[e]};
     Source& s = sources_[e];
     const std::span<const uint32_t> v = mesh.element_vertices(e);
     s.normal = mesh.normal[e];
@@ -63,7 +65,7 @@ uint32_t ElementRays::cast(const Ray& ray) const {
   for (int attempt = 0; attempt < 4; ++attempt) {
     const RayHit hit = embree_->intersect(ray.origin, ray.direction, t_near, 1e30);
     if (!hit.hit) return kMiss;
-    const Source& met = sources_[hit.element];
+    const Target& met = targets_[hit.element];
     if (met.polygon == ray.polygon) {
       t_near = hit.distance + t_near_;
       continue;

@@ -51,9 +51,15 @@ class ElementRays {
     bool fan = false;  // false: an n-gon, sampled through point_on_element
   };
   Vec3 origin(const Source& s, size_t element, double u1, double u2) const;
+  // What a hit needs of the element met, apart (one cache line, not the source's three).
+  struct Target {
+    Vec3 normal;
+    uint32_t polygon = 0;
+  };
 
   const Mesh& mesh_;
   std::vector<Source> sources_;
+  std::vector<Target> targets_;
   std::unique_ptr<EmbreeScene> embree_;
   double t_near_ = 0.0;
 };

@@ -96,7 +96,8 @@ TEST_P(EverySolver, ReachesTheReference) {
       // averaging) and the exact-vs-raycast F difference (~1e-3 here). Asserted: max relative
       // error <= 0.02/(1-rho) (0.04 at rho = 0.5, 0.2 at 0.9), several standard errors above
       // what is expected; `radlab solve builtin:cube:rho=R --subdiv 2 --solver
-      // stochastic-jacobi --steps 60` gives 0.015 at rho = 0.5 and 0.037 at 0.9 (docs/solvers.md).
+      // stochastic-jacobi --steps 60` gives p_max 0.021 at rho = 0.5 and 0.025 at 0.9
+      // (docs/solvers.md).
       // random-walk: 60 steps of 10^4 unbiased walks (no averaging bias), p_max 0.0094 at
       // rho = 0.5, 0.0047 at 0.9 and 0.0063 on the furnace (the same command, --solver
       // random-walk): the bound holds with a wider margin.
