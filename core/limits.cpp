@@ -24,6 +24,7 @@ constexpr Key kKeys[] = {
     {"polygons", &Limits::polygons, false, "input polygons after MGF includes and arrays"},
     {"runs", &Limits::runs, false, "planned runs of one experiment"},
     {"images_gb", &Limits::images_gb, true, "GB of images one sweep writes"},
+    {"rays", &Limits::rays, false, "rays per step of a Monte Carlo solver"},
 };
 
 const Key& key_named(const std::string& name) {

@@ -21,6 +21,7 @@ struct Limits {
   double polygons = 5e6;   // input polygons after MGF includes and array instances
   double runs = 1e5;       // planned runs of one experiment
   double images_gb = 20.0;  // bytes of images a sweep writes (EXR + PNG, every step and run)
+  double rays = 1e9;        // rays one step of a Monte Carlo solver casts (or walks it starts)
 };
 
 // The process-wide limits (the command line sets them once, tests may change them).

@@ -103,7 +103,8 @@ def plot_metric(runs, metric, x, title, path_stem, formats):
                     label=f"{label} (display)")
     ax.set_yscale("log")
     ax.set_xlabel({"ff_rows": "form-factor rows (hemicubes)", "seconds": "solver seconds",
-                   "pair_evals": "element-pair form factors evaluated"}[x])
+                   "pair_evals": "element-pair form factors evaluated",
+                   "seconds_with_setup": "seconds including set-up (matrix build)"}[x])
     ax.set_ylabel({"rms_rel": "relative RMS error (Cohen eq. 14)",
                    "rms_rel_reflected": "relative RMS error of B - E",
                    "p_mean": "mean |p-error| (Wu & Wang)"}[metric])
@@ -173,9 +174,10 @@ def main(argv):
         mean = scene_rows[scene_rows["channel"] == "mean"]
         runs = list(mean.groupby("run_id", sort=False))
         title = f"{name}: {description}"
-        # Traces from before the pair_evals / rms_rel_reflected columns still plot.
+        # Traces from before the pair_evals / rms_rel_reflected / seconds_with_setup columns still
+        # plot.
         metrics = [m for m in ["rms_rel", "p_mean", "rms_rel_reflected"] if m in mean]
-        axes = [x for x in ["ff_rows", "seconds", "pair_evals"] if x in mean]
+        axes = [x for x in ["ff_rows", "seconds", "pair_evals", "seconds_with_setup"] if x in mean]
         for metric in metrics:
             for x in axes:
                 stem = os.path.join(plots, f"{safe}_{metric}_vs_{'rows' if x == 'ff_rows' else x}")

@@ -47,6 +47,7 @@ std::vector<SolverInfo> builtin_solvers() {
       hierarchical_solver_info(),
       adaptive_shooting_solver_info(),
       stochastic_jacobi_solver_info(),
+      random_walk_solver_info(),
   };
   for (SolverInfo& info : table) {
     const std::string problems = complete_parameters(info);
@@ -92,8 +93,15 @@ const SolverInfo& solver_info(const std::string& name) {
   throw UsageError("unknown solver '" + name + "'; solvers: " + text::join(names, ", "));
 }
 
+bool is_matrix_free(const std::string& name) {
+  for (const SolverInfo& info : solver_registry())
+    if (info.name == name) return info.matrix_free;
+  return false;
+}
+
 bool needs_step_or_time_budget(const std::string& name) {
-  return name == "stochastic-jacobi";
+  // The same solvers today: reading no rows is why a budget in rows cannot end them.
+  return is_matrix_free(name);
 }
 
 std::unique_ptr<Solver> make_solver(const std::string& name, ParamBag& parameters) {

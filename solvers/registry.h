@@ -40,6 +40,10 @@ struct SolverInfo {
   // Reads the solver's options from the bag (validating them) and creates it.
   std::function<std::unique_ptr<Solver>(ParamBag&)> make;
   SolverKind kind = SolverKind::kOther;
+  // Reads no form-factor row and never finishes by itself (the Monte Carlo solvers: every step
+  // refines an estimate). The runner gives it no matrix of its own (run_request.h) and refuses a
+  // budget in rows alone for it (needs_step_or_time_budget).
+  bool matrix_free = false;
 };
 
 // The built-in solvers, then the registered ones, in registration order. Register before using
@@ -58,9 +62,14 @@ std::unique_ptr<Solver> make_solver(const std::string& name, ParamBag& parameter
 const SolverInfo& solver_info(const std::string& name);
 
 // True for the solvers that read no form-factor row and never finish by themselves (the Monte
-// Carlo ones: every step refines an average): a budget in rows alone cannot end their runs, so
-// the runner refuses one and an experiment's "all" leaves them out.
+// Carlo ones, SolverInfo::matrix_free: every step refines an average): a budget in rows alone
+// cannot end their runs, so the runner refuses one and an experiment's "all" leaves them out.
+// False for names not registered.
 bool needs_step_or_time_budget(const std::string& name);
+
+// SolverInfo::matrix_free of a registered solver (false for names not registered): no run of it
+// needs a form-factor matrix, so none is built for it when its reference needs none either.
+bool is_matrix_free(const std::string& name);
 
 // The keys make() reads from an empty bag, with the defaults of its options struct as text.
 std::map<std::string, std::string> read_parameter_defaults(const SolverInfo& info);

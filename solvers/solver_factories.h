@@ -14,5 +14,6 @@ SolverInfo conjugate_gradient_solver_info();  // conjugate_gradient.cpp
 SolverInfo hierarchical_solver_info();        // hierarchical.cpp
 SolverInfo adaptive_shooting_solver_info();   // two_level_adaptive.cpp
 SolverInfo stochastic_jacobi_solver_info();   // monte_carlo/stochastic_jacobi.cpp
+SolverInfo random_walk_solver_info();         // monte_carlo/random_walk.cpp
 
 }  // namespace radlab

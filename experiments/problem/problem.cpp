@@ -185,6 +185,7 @@ void find_streamed_reference(Preparation& p) {
   if (!problem.reference) return;
   p.streamed = std::move(check);
   p.streamed_system = std::move(on_the_fly);
+  problem.preparation.push_back("reference streamed");
   problem.reference_cache_file = references.path(reference_key).string();
 }
 
@@ -249,8 +250,10 @@ void load_or_build_matrix(Preparation& p) {
   }
   if (cached) {
     problem.matrix = std::move(*cached);
+    problem.preparation.push_back("matrix loaded");
   } else {
     problem.matrix = build_method_matrix(problem);
+    problem.preparation.push_back("matrix built");
   }
   log::info("form factors: " + problem.build.summary());
 }
@@ -395,6 +398,9 @@ void reference_stage(Preparation& p) {
         throw NumericalError(std::string(e.what()) + " [" + problem.used_row_sums.headline() + "]");
       }
       if (references) references->store(reference_key, *problem.reference);
+      problem.preparation.push_back("reference computed");
+    } else {
+      problem.preparation.push_back("reference loaded");
     }
     progress.finish();
   }
@@ -418,6 +424,7 @@ void system_stage(Preparation& p) {
 // rank-P reference, the system on the rows. Nothing n x n.
 void two_level_rows_stage(Preparation& p) {
   two_level_patch_rows(p.problem);
+  p.problem.preparation.push_back("patch rows built");
 }
 void two_level_checks_stage(Preparation& p) {
   check_two_level_rows(p.problem, p.accept_unphysical);

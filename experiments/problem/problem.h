@@ -70,6 +70,11 @@ struct Problem {
   std::optional<Reference> reference;
   // Where the cache holds (or would hold) the matrix and reference; empty without a cache.
   std::string matrix_cache_file, reference_cache_file;
+  // What preparing it did, in order, one word each (run.json's problem.preparation; tests assert
+  // on it): "matrix built", "matrix loaded" (from the cache), "reference computed",
+  // "reference loaded" (certified anew against the matrix), "reference streamed" (loaded from the
+  // cache, certified with rows on the fly: no matrix), "patch rows built" (two levels).
+  std::vector<std::string> preparation;
 
   const Scene& scene() const { return loaded.scene; }
   bool has_matrix() const { return matrix.size() > 0; }

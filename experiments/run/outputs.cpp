@@ -80,6 +80,10 @@ void write_form_factor_info(JsonWriter& json, const Problem& p) {
   json.field("parameters", p.ff_parameters);
   json.field("precision", p.spec.precision == Precision::kFloat ? "float" : "double");
   json.field("rows", p.spec.row_mode == RowMode::kCached ? "cached" : "on-the-fly");
+  // What preparing the problem did (problem.h): whether a matrix was built, loaded or neither.
+  json.key("preparation").begin_array();
+  for (const std::string& stage : p.preparation) json.value(stage);
+  json.end_array();
   if (p.system && p.system->two_level()) {  // the patch rows' cost (solvers/two_level/patch_rows.h)
     json.field("patch_rows", p.spec.patches.resolved_rows(p.spec.ff_method));
     json.field("patch_rows_method_rows",
@@ -193,6 +197,8 @@ void write_run_result(JsonWriter& json, const Budget& budget, const RunResult& r
   json.field("rays", static_cast<unsigned long long>(r.rays));
   json.field("pair_evals", static_cast<unsigned long long>(r.pair_evals));
   json.field("seconds", r.seconds);
+  json.field("setup_seconds", r.setup_seconds);
+  json.field("seconds_with_setup", r.seconds_with_setup);
   json.field("reference_kind", r.reference_kind);
   json.field("rms_rel_reflected", r.final_reflected.rms_rel);
   json.field("rms_rel", r.final_errors.rms_rel);

@@ -95,8 +95,8 @@ RunOutcome run_prepared(const RunRequest& request, const Problem& problem,
 }  // namespace
 
 std::unique_ptr<Problem> prepare_run_problem(const ProblemSpec& spec_in,
-                                             const ReferenceChoice& reference,
-                                             const Budget& budget) {
+                                             const ReferenceChoice& reference, const Budget& budget,
+                                             bool rows_read) {
   if (reference.kind != "certified" && reference.kind != "none" &&
       reference.kind != kHierarchicalFineReference)
     throw UsageError("reference: unknown kind '" + reference.kind +
@@ -108,6 +108,9 @@ std::unique_ptr<Problem> prepare_run_problem(const ProblemSpec& spec_in,
     spec.need_reference = false;
     spec.row_mode = RowMode::kOnTheFly;
   }
+  // A solver that reads no row needs no matrix (a reference not in the cache still builds one,
+  // in prepare_problem's matrix stage, for the reference alone).
+  if (!rows_read) spec.row_mode = RowMode::kOnTheFly;
   std::unique_ptr<Problem> problem = prepare_problem(spec);
   if (budget.tol && !problem->has_matrix() && !problem->system->two_level())
     throw UsageError(
@@ -132,8 +135,8 @@ RunOutcome execute_run(const RunRequest& request) {
   // The solver's parameters and the outputs are checked before any work.
   std::unique_ptr<Solver> solver = make_requested_solver(request);
   check_outputs_writable(request.outputs);
-  std::unique_ptr<Problem> problem =
-      prepare_run_problem(request.problem, request.reference, request.budget);
+  std::unique_ptr<Problem> problem = prepare_run_problem(
+      request.problem, request.reference, request.budget, !is_matrix_free(request.solver));
   RunOutcome outcome = run_prepared(request, *problem, std::move(solver));
   outcome.owned_problem = std::move(problem);
   return outcome;

@@ -73,10 +73,14 @@ struct RunOutcome {
 
 // The problem of a request, prepared with its reference choice: `none` and `hierarchical-fine`
 // skip the dense matrix (rows on the fly); `hierarchical-fine` then runs the stand-in. A
-// tolerance without the certified reference is a UsageError.
+// tolerance without the certified reference is a UsageError. `rows_read` false (the run's
+// solvers are all matrix-free, SolverInfo::matrix_free) prepares rows on the fly too: no matrix
+// is built for the solver, and the certified reference, when the cache holds it, is certified
+// with rows on the fly (as --ff-mode on-the-fly); only a reference missing from the cache builds
+// the matrix, for itself.
 std::unique_ptr<Problem> prepare_run_problem(const ProblemSpec& spec,
-                                             const ReferenceChoice& reference,
-                                             const Budget& budget);
+                                             const ReferenceChoice& reference, const Budget& budget,
+                                             bool rows_read = true);
 
 // Runs the request on `problem` (shared by the runs of a sweep) and writes its outputs: trace,
 // radiosities, image, run.json. Errors propagate (a caller owning outputs.trace_sink closes it).

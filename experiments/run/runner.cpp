@@ -49,6 +49,14 @@ std::string Budget::describe() const {
   return parts.empty() ? "none" : text::join(parts, ", ");
 }
 
+double setup_seconds(const Problem& problem, unsigned long long rows) {
+  if (rows == 0 || !problem.system) return 0.0;
+  if (problem.system->two_level()) return problem.patch_row_report.seconds;
+  // Rows from the dense matrix (cached rows); on the fly they cost their steps' time.
+  if (problem.system->matrix() != nullptr) return problem.build.seconds;
+  return 0.0;
+}
+
 long long CheckpointSchedule::next_after(long long step) const {
   long long next = step + 1;
   if (next > every_step_until) {
@@ -106,6 +114,7 @@ class Evaluator {
   double evaluate(const Solver& solver, long long step, unsigned long long rows, double seconds,
                   unsigned long long rays, unsigned long long pair_evals, RunResult& result) {
     const System& system = *problem_.system;
+    const double with_setup = seconds + setup_seconds(problem_, rows);
     const Radiosity& B =
         call_solver(labels_, "solution()", [&]() -> const Radiosity& { return solver.solution(); });
     check_solver_field(B, system, labels_, "solution()");
@@ -145,6 +154,7 @@ class Evaluator {
                           .rays = rays,
                           .pair_evals = pair_evals,
                           .seconds = seconds,
+                          .seconds_with_setup = with_setup,
                           .B = B,
                           .unshot = unshot,
                           .measured = problem_.reference.has_value(),
@@ -274,6 +284,7 @@ CheckpointRecord checkpoint_record(const Problem& problem, const RunResult& resu
   record.rows = system.rows_used();
   record.pair_evals = system.pair_evaluations();
   record.seconds = seconds;
+  record.seconds_with_setup = seconds + setup_seconds(problem, record.rows);
   const double nan = std::nan("");
   const bool measured = problem.reference.has_value();
   record.rms_rel = measured ? result.final_errors.rms_rel : nan;
@@ -337,6 +348,8 @@ void finish_result(RunResult& result, const Problem& problem, const Solver& solv
   result.pair_evals = system.pair_evaluations();
   result.reference_kind = problem.reference ? problem.reference->kind : "none";
   result.seconds = seconds;
+  result.setup_seconds = setup_seconds(problem, result.rows);
+  result.seconds_with_setup = seconds + result.setup_seconds;
   result.final_bound_relative = bound;
   result.final_bound_relative_reflected = bound * scale;
   result.tolerance_of_reflected = budget.tol_of_reflected;

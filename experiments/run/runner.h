@@ -67,6 +67,7 @@ struct CheckpointRecord {
   unsigned long long rows = 0;
   unsigned long long pair_evals = 0;
   double seconds = 0.0;
+  double seconds_with_setup = 0.0;  // seconds + the set-up the run has depended on so far
   double rms_rel = 0.0, p_mean = 0.0, rms_rel_display = 0.0, p_mean_display = 0.0;
   double rms_rel_reflected = 0.0;
   double bound_relative = 0.0;
@@ -77,6 +78,9 @@ struct RunResult {
   long long steps = 0;
   unsigned long long rows = 0, rays = 0, pair_evals = 0;
   double seconds = 0.0;
+  // The set-up the run depended on (setup_seconds(): the matrix's or the patch rows' build time
+  // once the run has read a row of them, else 0) and seconds plus it.
+  double setup_seconds = 0.0, seconds_with_setup = 0.0;
   std::string stop_reason;
   std::string reference_kind = "none";  // Reference::kind, or "none" without a reference
   ErrorMetrics final_errors;            // on the mean of the channels, solution()
@@ -127,6 +131,14 @@ auto call_solver(const RunLabels& labels, const char* call, F&& f) -> decltype(f
 // bounds). NumericalError naming the run, the solver and `what` otherwise.
 void check_solver_field(const Radiosity& field, const System& system, const RunLabels& labels,
                         const char* what);
+
+// The set-up seconds a run on `problem` depends on once it has read `rows` form-factor rows: the
+// build time of the dense matrix the System serves rows from (BuildReport::seconds, the original
+// build's when the matrix came from the cache) or of the two-level patch rows; 0 before the first
+// row, and 0 for rows on the fly (computed, and timed, inside the steps), for solvers that read no
+// row (the Monte Carlo ones, hierarchical: their rays and refinement are in their steps) and for
+// a matrix built only for the reference. Docs: docs/outputs.md (`seconds_with_setup`).
+double setup_seconds(const Problem& problem, unsigned long long rows);
 
 // Called at every checkpoint after the metrics are written (e.g. to save images).
 using CheckpointHook = std::function<void(long long step, const Solver& solver)>;

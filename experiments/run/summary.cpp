@@ -176,6 +176,8 @@ ColumnTable<SummaryRecord> make_summary_table() {
       of_result([](CsvWriter& c, const Record&, const RunResult& x) { c.add(statistics_field(x.statistics)); }));
   add("p_excluded_area", "the area fraction of the elements left out of p-error (trace.csv's `p_excluded`) at the end",
       number([](const Record&, const RunResult& x) { return x.final_errors.p_excluded_area; }));
+  add("seconds_with_setup", "solver seconds plus the set-up the run depended on (trace.csv's `seconds_with_setup`: the matrix's recorded build time for a run that read its rows, the patch rows' on two levels, nothing for rows on the fly, hierarchical or Monte Carlo runs)",
+      number([](const Record&, const RunResult& x) { return x.seconds_with_setup; }), true);
   // clang-format on
   return t;
 }

@@ -69,7 +69,7 @@ ColumnTable<TraceCheckpoint> make_trace_table() {
      [](CsvWriter& c, const Row& r) { c.add(total_power(r.B, r.problem.system->area(), r.field)); }},
     {"rays", "visibility rays charged to the solver (on-the-fly rows, and rays a solver casts itself)",
      [](CsvWriter& c, const Row& r) { c.add(r.rays); }},
-    {"pair_evals", "the work column common to every solver: element-pair form factors evaluated so far. A flat row counts n (it holds n pair form factors, cached or not); a hierarchical link, a refinement estimate or a patch-to-element entry counts 1. Plots offer it as an x-axis beside `ff_rows` and `seconds`",
+    {"pair_evals", "the work column common to every solver: element-pair form factors evaluated so far. A flat row counts n (it holds n pair form factors, cached or not); a hierarchical link, a refinement estimate or a patch-to-element entry counts 1; so does a Monte Carlo ray (stochastic-jacobi, random-walk: a cosine ray from element i samples the one pair i → j it lands on; an escaping ray counts too). Plots offer it as an x-axis beside `ff_rows` and `seconds`",
      [](CsvWriter& c, const Row& r) { c.add(r.pair_evals); }},
     {"rms_reflected", "Cohen's eq. 14 on the reflected part, `B − E` against `B* − E`: the emitters, right from step 0 for every solver, drop out (the plain `rms_rel` is already ≈ 0.1 at B = E on the Cornell box)",
      measured([](const Row& r) { return r.reflected.rms; })},
@@ -86,6 +86,8 @@ ColumnTable<TraceCheckpoint> make_trace_table() {
      }},
     {"solver_statistics", "the solver's own counters so far (`Solver::statistics()`: hierarchical radiosity's nodes, links, rays, refinements ...) as `name=value;...`; empty for solvers without any. Those that measure the machine (time, peak RSS) are in run.json only",
      [](CsvWriter& c, const Row& r) { c.add(r.statistics); }},
+    {"seconds_with_setup", "`seconds` plus the set-up the run has depended on so far: once it has read a row of the dense matrix (cached rows), that matrix's build time (the original build's, as the cache recorded it, when loaded from the cache); on two levels, the patch rows' build time. Nothing is added for rows on the fly (computed inside the steps), for hierarchical radiosity (its refinement is in its steps) or for the matrix-free Monte Carlo solvers (their rays are), nor for a matrix built only for the reference. The x-axis that compares a solver needing a matrix with one that does not",
+     [](CsvWriter& c, const Row& r) { c.add(r.seconds_with_setup); }, true},
   };
   // clang-format on
 }
@@ -99,6 +101,13 @@ const ColumnTable<TraceCheckpoint>& trace_table() {
 
 std::vector<std::string> trace_columns() {
   return column_names(trace_table());
+}
+
+std::vector<std::string> trace_time_columns() {
+  std::vector<std::string> names;
+  for (const auto& column : trace_table())
+    if (column.time) names.push_back(column.name);
+  return names;
 }
 
 TraceWriter::TraceWriter(const std::string& path, const ColumnTable<TraceCheckpoint>& table)

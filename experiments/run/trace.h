@@ -30,13 +30,14 @@ struct TraceCheckpoint {
   long long step = 0;
   unsigned long long ff_rows = 0, rays = 0, pair_evals = 0;
   double seconds = 0.0;
-  const Radiosity& B;         // solution()
-  const Radiosity* unshot;    // unshot(), for shooting solvers
-  bool measured = false;      // a reference exists: the error columns apply
-  ErrorMetrics errors;        // of solution() against the reference
-  ErrorMetrics display;       // of display()
-  ReflectedRms reflected;     // of solution() - E against B* - E
-  double residual_inf = 0.0;  // NaN without a matrix or patch rows to take it with
+  double seconds_with_setup = 0.0;  // seconds + setup_seconds() (runner.h)
+  const Radiosity& B;               // solution()
+  const Radiosity* unshot;          // unshot(), for shooting solvers
+  bool measured = false;            // a reference exists: the error columns apply
+  ErrorMetrics errors;              // of solution() against the reference
+  ErrorMetrics display;             // of display()
+  ReflectedRms reflected;           // of solution() - E against B* - E
+  double residual_inf = 0.0;        // NaN without a matrix or patch rows to take it with
   double bound_inf = 0.0;
   std::string statistics;  // statistics_field(solver.statistics()) at this checkpoint
 };
@@ -45,6 +46,9 @@ struct TraceCheckpoint {
 const ColumnTable<TraceCheckpoint>& trace_table();
 // Their names: the trace's header.
 std::vector<std::string> trace_columns();
+// Those whose values measure the machine (`seconds`, `seconds_with_setup`): left out when re-runs
+// are compared.
+std::vector<std::string> trace_time_columns();
 
 class TraceWriter {
  public:

@@ -21,16 +21,16 @@
 #include <vector>
 
 #include "core/radiosity.h"
-#include "formfactor/visibility/embree_scene.h"
 #include "scene/mesh.h"
+#include "solvers/monte_carlo/element_rays.h"
 #include "solvers/monte_carlo/ray_sampler.h"
 
 namespace radlab::monte_carlo {
 
 class PowerPropagation {
  public:
-  // `mesh` and `reflectance` must outlive this object.
-  PowerPropagation(const Mesh& mesh, const Radiosity& reflectance);
+  // `mesh` and `reflectance` must outlive this object; `rays` casts the rays (element_rays.h).
+  PowerPropagation(const Mesh& mesh, const Radiosity& reflectance, const ElementRays& rays);
 
   // y = an estimate of R x with `rays` rays, numbers from `stream` (blocks numbered from
   // `*block`, which advances). Returns the rays cast (0 when x carries no power).
@@ -44,14 +44,9 @@ class PowerPropagation {
                             std::vector<double>& out) const;
 
  private:
-  static constexpr uint32_t kMiss = 0xFFFFFFFFu;
-  // The element whose front face the ray from a point on `source` meets first, or kMiss.
-  uint32_t trace(size_t source, const double* u) const;
-
   const Mesh& mesh_;
   const Radiosity& reflectance_;
-  std::unique_ptr<EmbreeScene> embree_;
-  double t_near_ = 0.0;
+  const ElementRays& rays_;
 };
 
 }  // namespace radlab::monte_carlo

@@ -62,20 +62,32 @@ class SobolStream final : public UniformStream {
 Vec3 point_on_element(const Mesh& mesh, size_t element, double u1, double u2) {
   const std::span<const uint32_t> v = mesh.element_vertices(element);
   const Vec3& a = mesh.vertices[v[0]];
-  // The fan's triangles (a, v[k], v[k+1]); quads have two, triangles one.
+  // The fan's triangles (a, v[k], v[k+1]); quads have two, triangles one. Each area is computed
+  // once (this runs for every ray: the Monte Carlo solvers' hottest code beside Embree).
+  constexpr size_t kCached = 8;
+  double areas[kCached];
+  const size_t triangles = v.size() - 2;
   double total = 0.0;
-  for (size_t k = 1; k + 1 < v.size(); ++k)
-    total += triangle_area(a, mesh.vertices[v[k]], mesh.vertices[v[k + 1]]);
-  double target = u1 * total, before = 0.0;
-  size_t k = 1;
-  for (; k + 2 < v.size(); ++k) {
+  for (size_t k = 1; k + 1 < v.size(); ++k) {
     const double area = triangle_area(a, mesh.vertices[v[k]], mesh.vertices[v[k + 1]]);
+    if (k - 1 < kCached) areas[k - 1] = area;
+    total += area;
+  }
+  const auto area_of = [&](size_t t) {
+    return t < kCached ? areas[t]
+                       : triangle_area(a, mesh.vertices[v[t + 1]], mesh.vertices[v[t + 2]]);
+  };
+  const double target = u1 * total;
+  double before = 0.0;
+  size_t t = 0;
+  for (; t + 1 < triangles; ++t) {
+    const double area = area_of(t);
     if (target < before + area) break;
     before += area;
   }
-  const Vec3& b = mesh.vertices[v[k]];
-  const Vec3& c = mesh.vertices[v[k + 1]];
-  const double area = triangle_area(a, b, c);
+  const Vec3& b = mesh.vertices[v[t + 1]];
+  const Vec3& c = mesh.vertices[v[t + 2]];
+  const double area = area_of(t);
   // u1 rescaled to [0,1) within the chosen triangle.
   const double s = area > 0.0 ? std::clamp((target - before) / area, 0.0, kBelowOne) : 0.0;
   // Uniform on the triangle: sqrt warps the first coordinate so area is preserved.

@@ -41,7 +41,8 @@
 // Sequences: pseudo (PCG32 streams from the seed) or sobol (Boost.Random's Sobol' points in five
 //   dimensions, continuing from step to step, with a random shift from the seed per dimension:
 //   randomised quasi-Monte Carlo, unbiased for every seed, errors falling faster than N^-1/2).
-// Parameters: rays (per step, > 0), control_variate (false, true or a constant >= 0), sequence
+// Parameters: rays (per step, > 0 and at most --limits rays=, InputError beyond), control_variate
+// (false, true or a constant >= 0), sequence
 //   (pseudo or sobol), seed; defaults: `radlab solvers` (StochasticJacobiOptions).
 // Cost per step: `rays` rays (the first regular step with a control variate adds the landing
 //   estimate's rays). Work charged: every ray cast with charge_rays and as one element-pair
@@ -55,6 +56,7 @@
 #include <string>
 
 #include "core/error.h"
+#include "core/limits.h"
 #include "core/random.h"
 #include "solvers/monte_carlo/power_propagation.h"
 #include "solvers/monte_carlo/ray_sampler.h"
@@ -87,7 +89,15 @@ struct StochasticJacobiOptions {
     o.sequence = bag.get_choice("sequence", o.sequence, {"pseudo", "sobol"});
     o.seed = bag.get_int("seed", o.seed);
     o.validate();
+    // A value given is checked here, before any work; the default (no key: also the registry's
+    // reading of the defaults, which must not fail) at init().
+    if (bag.has("rays")) o.check_rays_limit();
     return o;
+  }
+
+  void check_rays_limit() const {
+    check_limit("rays", double(rays),
+                "stochastic-jacobi: rays=" + std::to_string(rays) + " rays per step");
   }
 
   void validate() {
@@ -137,8 +147,11 @@ class StochasticJacobiSolver final : public Solver {
   explicit StochasticJacobiSolver(StochasticJacobiOptions options) : o_(std::move(options)) {}
 
   void init(const System& system) override {
+    o_.check_rays_limit();
     system_ = &system;
-    propagation_ = std::make_unique<PowerPropagation>(system.mesh(), system.reflectance());
+    rays_tracer_ = std::make_unique<ElementRays>(system.mesh());
+    propagation_ =
+        std::make_unique<PowerPropagation>(system.mesh(), system.reflectance(), *rays_tracer_);
     const uint64_t seed = uint64_t(o_.seed);
     stream_ = o_.sequence == "sobol" ? make_sobol_stream(seed) : make_pseudo_stream(seed);
     // The landing estimate's own stream, independent of the one above.
@@ -255,6 +268,7 @@ class StochasticJacobiSolver final : public Solver {
 
   StochasticJacobiOptions o_;
   const System* system_ = nullptr;
+  std::unique_ptr<ElementRays> rays_tracer_;
   std::unique_ptr<PowerPropagation> propagation_;
   std::unique_ptr<UniformStream> stream_, landing_stream_;
   uint64_t block_ = 0, landing_block_ = 0;
@@ -283,7 +297,8 @@ SolverInfo stochastic_jacobi_solver_info() {
           [](ParamBag& bag) -> std::unique_ptr<Solver> {
             return std::make_unique<StochasticJacobiSolver>(StochasticJacobiOptions::from(bag));
           },
-          SolverKind::kOther};
+          SolverKind::kOther,
+          /*matrix_free=*/true};
 }
 
 }  // namespace radlab

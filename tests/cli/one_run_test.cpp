@@ -8,6 +8,8 @@
 #include <string>
 
 #include "core/csv_reader.h"
+#include "experiments/run/trace.h"
+#include "tests/experiment_fixtures.h"
 #include "tests/test_support.h"
 
 namespace radlab {
@@ -26,12 +28,9 @@ std::string file_text(const std::string& path) {
   return text.str();
 }
 
-// The trace's rows without its time column.
+// The trace's rows without its time columns.
 std::vector<std::vector<std::string>> timeless_rows(const std::string& path) {
-  CsvTable table = read_csv(path);
-  const size_t seconds = table.column("seconds");
-  for (auto& row : table.rows) row.erase(row.begin() + long(seconds));
-  return table.rows;
+  return testing::without_columns(read_csv(path), trace_time_columns());
 }
 
 TEST(OneRun, SolveAndAOneRunSweepWriteTheSameRows) {

@@ -25,6 +25,7 @@
 
 #include "core/csv_reader.h"
 #include "experiments/run/summary.h"
+#include "experiments/run/trace.h"
 #include "tests/experiment_fixtures.h"
 #include "tests/test_support.h"
 
@@ -90,8 +91,8 @@ int jobs(const std::map<std::string, int>& table, const std::string& rule) {
 }
 
 void expect_same_results(const std::string& sweep, const std::string& reference) {
-  EXPECT_EQ(testing::without_columns(read_csv(sweep + "/trace.csv"), {"seconds"}),
-            testing::without_columns(read_csv(reference + "/trace.csv"), {"seconds"}))
+  EXPECT_EQ(testing::without_columns(read_csv(sweep + "/trace.csv"), trace_time_columns()),
+            testing::without_columns(read_csv(reference + "/trace.csv"), trace_time_columns()))
       << sweep;
   const CsvTable summary = read_csv(sweep + "/summary.csv");
   EXPECT_EQ(summary.rows.size(), 16u);  // 4 problems x 4 solver settings

@@ -73,7 +73,8 @@ TEST(Columns, PublishedColumnsKeepTheirNamesAndOrder) {
                                                     "rms_rel_reflected",
                                                     "reference_kind",
                                                     "solver_elements",
-                                                    "solver_statistics"};
+                                                    "solver_statistics",
+                                                    "seconds_with_setup"};
   const std::vector<std::string> trace = trace_columns();
   ASSERT_GE(trace.size(), trace_published.size());
   EXPECT_EQ(std::vector<std::string>(trace.begin(), trace.begin() + long(trace_published.size())),
@@ -89,6 +90,7 @@ TEST(Columns, PublishedColumnsKeepTheirNamesAndOrder) {
   EXPECT_EQ(summary[55], "bound_relative_reflected");
   EXPECT_EQ(summary[56], "solver_statistics");
   EXPECT_EQ(summary[57], "p_excluded_area");
+  EXPECT_EQ(summary[58], "seconds_with_setup");
 }
 
 // A new metric is one entry: the area-weighted L1 error relative to the reference's area-weighted

@@ -43,6 +43,8 @@ TEST(MonteCarloBudget, RowsAloneAreRefusedStepsRun) {
   const RunResult r = run(*p, steps);
   EXPECT_EQ(r.stop_reason, "step budget");
   EXPECT_TRUE(needs_step_or_time_budget("stochastic-jacobi"));
+  EXPECT_TRUE(needs_step_or_time_budget("random-walk"));
+  EXPECT_FALSE(needs_step_or_time_budget("no-such-solver"));
   EXPECT_FALSE(needs_step_or_time_budget("hierarchical"));  // it finishes at its fixed point
 }
 

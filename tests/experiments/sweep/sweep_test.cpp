@@ -54,10 +54,13 @@ TEST(ExperimentSpec, AllMeansEveryRegisteredSolver) {
   ExperimentSpec spec =
       read_experiment(dir.write("e.toml", "scenes = [\"builtin:cube\"]\nsolvers = [\"all\"]\n"));
   // One level: every registered solver but adaptive-shooting, which needs patches (two levels
-  // narrow "all" differently: tests/solvers/two_level/two_level_test.cpp), and stochastic-jacobi,
-  // which a shared budget in rows would never end (needs_step_or_time_budget).
-  EXPECT_EQ(spec.solvers.size(), solver_registry().size() - 2);
-  for (const SolverSweep& s : spec.solvers) EXPECT_NE(s.name, "stochastic-jacobi");
+  // narrow "all" differently: tests/solvers/two_level/two_level_test.cpp), and the Monte Carlo
+  // solvers, which a shared budget in rows would never end (needs_step_or_time_budget).
+  EXPECT_EQ(spec.solvers.size(), solver_registry().size() - 3);
+  for (const SolverSweep& s : spec.solvers) {
+    EXPECT_NE(s.name, "stochastic-jacobi");
+    EXPECT_NE(s.name, "random-walk");
+  }
 }
 
 TEST(ExperimentSpec, ErrorsNameFileAndLine) {
@@ -124,7 +127,7 @@ TEST(Sweep, WritesDocumentedColumnsAndRepeatsExactly) {
   CsvTable summary2 = read_csv(dir.file("second/summary.csv"));
   EXPECT_EQ(summary1.header, summary_columns());
   EXPECT_EQ(summary1.rows.size(), 2u);
-  const std::vector<std::string> trace_time = {"seconds"};
+  const std::vector<std::string> trace_time = trace_time_columns();
   EXPECT_EQ(testing::without_columns(trace1, trace_time),
             testing::without_columns(trace2, trace_time));
   EXPECT_EQ(testing::without_columns(summary1, summary_time_columns()),
@@ -184,7 +187,7 @@ TEST(Sweep, ShardsMergeToTheUnsplitResult) {
   run_sweep(spec, {dir.file("s0"), 0, 2, "test"});
   run_sweep(spec, {dir.file("s1"), 1, 2, "test"});
   EXPECT_EQ(merge_sweeps({dir.file("s1"), dir.file("s0")}, dir.file("merged"), "radlab merge"), 4u);
-  const std::vector<std::string> trace_time = {"seconds"};
+  const std::vector<std::string> trace_time = trace_time_columns();
   EXPECT_EQ(testing::without_columns(read_csv(dir.file("merged/trace.csv")), trace_time),
             testing::without_columns(read_csv(dir.file("whole/trace.csv")), trace_time));
   EXPECT_EQ(

@@ -20,34 +20,14 @@
 #include <vector>
 
 #include "core/error.h"
-#include "formfactor/methods/raycast.h"
-#include "scene/builtin/builtin_scenes.h"
-#include "scene/validate.h"
 #include "solvers/registry.h"
 #include "tests/solver_support.h"
+#include "tests/solvers/monte_carlo/matrix_free.h"
 
 namespace radlab {
 namespace {
 
-// A scene, its mesh and a System whose rows are never read: the solver is matrix-free, so the
-// form-factor method behind the System is there only because a System needs one (a test below
-// checks that no row is read).
-struct MatrixFree {
-  Scene scene;
-  Mesh mesh;
-  std::unique_ptr<RaycastFormFactors> method;
-  std::unique_ptr<System> system;
-};
-
-std::unique_ptr<MatrixFree> matrix_free(const std::string& spec, int subdiv) {
-  auto s = std::make_unique<MatrixFree>();
-  s->scene = make_builtin_scene(spec);
-  validate_scene(s->scene);
-  s->mesh = build_mesh(s->scene, {subdiv, 0.0});
-  s->method = std::make_unique<RaycastFormFactors>(s->scene, s->mesh, RaycastOptions{});
-  s->system = std::make_unique<System>(s->scene, s->mesh, *s->method);
-  return s;
-}
+using testing::matrix_free;
 
 struct RunResult {
   Radiosity solution;

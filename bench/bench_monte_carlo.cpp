@@ -1,0 +1,124 @@
+// Ray throughput of the Monte Carlo solvers against raw Embree (issue 32's target: a stochastic
+// Jacobi step casts rays at >= 0.8 of raw Embree single-ray throughput on the same scene and core).
+//
+// Scene: the Cornell box at --subdiv 16 (5,120 elements, bench_scenes.h). One thread (TBB limited
+// to one), CPU time of this thread (bench_clock.h). Each iteration, interleaved so the machine's
+// drift cancels in the ratios:
+//   - one step of stochastic-jacobi with 2^17 rays (the whole step: the power distribution over
+//     the elements, the numbers, sampling points and cosine directions, Embree's closest hits and
+//     the deposits), rays counted by the System;
+//   - the same number of raw single rays: EmbreeScene::intersect (rtcIntersect1) on origins and
+//     directions drawn beforehand from the same distribution (an element chosen by the power the
+//     regular steps propagate, a uniform point on it, a cosine direction), outside the timing:
+//     Embree's own cost, nothing else;
+//   - one step of random-walk (shooting walks, collision estimator) of 2^15 walks, rays counted
+//     by the System.
+// Counters: sj_rays_per_s, embree_rays_per_s, rw_rays_per_s, and the ratios sj_vs_embree and
+// rw_vs_embree.
+//
+// Run: build/bench/bench_monte_carlo --benchmark_counters_tabular=true
+#include <benchmark/benchmark.h>
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <vector>
+
+#include "bench/bench_clock.h"
+#include "bench/bench_scenes.h"
+#include "core/param_bag.h"
+#include "core/random.h"
+#include "formfactor/methods/raycast.h"
+#include "solvers/monte_carlo/ray_sampler.h"
+#include "solvers/registry.h"
+#include "solvers/system.h"
+
+namespace radlab {
+namespace {
+
+constexpr uint64_t kRays = uint64_t(1) << 17;
+
+std::unique_ptr<Solver> make(const char* name, std::vector<std::string> params) {
+  ParamBag bag = ParamBag::from_assignments(params, name);
+  return make_solver(name, bag);
+}
+
+struct RawRays {
+  std::vector<Vec3> origin, direction;
+};
+
+// kRays rays as a regular stochastic-jacobi step draws them: elements by power A_i sum_c |B_ic|
+// (most rays leave the lamp and the lit walls), a uniform point, a cosine direction.
+RawRays raw_rays(const Mesh& mesh, const Radiosity& B) {
+  std::vector<double> cumulative(mesh.size());
+  double total = 0.0;
+  for (size_t i = 0; i < mesh.size(); ++i) {
+    double b = 0.0;
+    for (int c = 0; c < B.channels(); ++c) b += std::abs(B.at(c, i));
+    cumulative[i] = total += mesh.area[i] * b;
+  }
+  Pcg32 rng(42);
+  RawRays r;
+  for (uint64_t k = 0; k < kRays; ++k) {
+    const double target = rng.next_double() * total;
+    const size_t i =
+        size_t(std::upper_bound(cumulative.begin(), cumulative.end(), target) - cumulative.begin());
+    const size_t e = std::min(i, mesh.size() - 1);
+    const double u1 = rng.next_double(), u2 = rng.next_double();
+    const double u3 = rng.next_double(), u4 = rng.next_double();
+    r.origin.push_back(monte_carlo::point_on_element(mesh, e, u1, u2));
+    r.direction.push_back(monte_carlo::cosine_direction(mesh.normal[e], u3, u4));
+  }
+  return r;
+}
+
+void BM_StochasticJacobiAgainstRawEmbree(benchmark::State& state) {
+  tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
+  const bench::SceneMesh& c = bench::cornell();
+  const RaycastFormFactors unused_rows(c.scene, c.mesh, RaycastOptions{});  // never read
+  const System system(c.scene, c.mesh, unused_rows);
+  auto jacobi = make("stochastic-jacobi", {"rays=" + std::to_string(kRays)});
+  auto walks = make("random-walk", {"paths=" + std::to_string(kRays / 4)});
+  jacobi->init(system);
+  walks->init(system);
+  // Past the incremental steps (8 on this box), untimed: every timed step is a regular one.
+  for (int k = 0; k < 12; ++k) jacobi->step();
+  const RawRays raw = raw_rays(c.mesh, jacobi->solution());
+  const double t_near = 1e-6;  // as the solvers' (a millionth of the box's ~1 m size)
+  double sj_seconds = 0.0, embree_seconds = 0.0, rw_seconds = 0.0;
+  uint64_t sj_rays = 0, embree_rays = 0, rw_rays = 0, hits = 0;
+  for (auto _ : state) {
+    uint64_t before = system.rays_used();
+    timespec start = thread_now();
+    jacobi->step();
+    sj_seconds += thread_seconds(start);
+    sj_rays += system.rays_used() - before;
+
+    start = thread_now();
+    for (uint64_t k = 0; k < kRays; ++k)
+      hits += c.embree->intersect(raw.origin[k], raw.direction[k], t_near, 1e30).hit ? 1 : 0;
+    embree_seconds += thread_seconds(start);
+    embree_rays += kRays;
+
+    before = system.rays_used();
+    start = thread_now();
+    walks->step();
+    rw_seconds += thread_seconds(start);
+    rw_rays += system.rays_used() - before;
+  }
+  benchmark::DoNotOptimize(hits);
+  const double sj = double(sj_rays) / sj_seconds, embree = double(embree_rays) / embree_seconds;
+  const double rw = double(rw_rays) / rw_seconds;
+  state.counters["sj_rays_per_s"] = sj;
+  state.counters["embree_rays_per_s"] = embree;
+  state.counters["rw_rays_per_s"] = rw;
+  state.counters["sj_vs_embree"] = sj / embree;
+  state.counters["rw_vs_embree"] = rw / embree;
+}
+BENCHMARK(BM_StochasticJacobiAgainstRawEmbree)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+
+}  // namespace
+}  // namespace radlab
+
+BENCHMARK_MAIN();

@@ -1,0 +1,108 @@
+// Cosine rays between elements, and the power distribution over elements (element_rays.h).
+#include "solvers/monte_carlo/element_rays.h"
+
+#include <algorithm>
+#include <cmath>
+#include <glm/common.hpp>
+#include <glm/geometric.hpp>
+#include <limits>
+
+#include "solvers/monte_carlo/ray_sampler.h"
+
+namespace radlab::monte_carlo {
+
+ElementRays::ElementRays(const Mesh& mesh)
+    : mesh_(mesh), embree_(std::make_unique<EmbreeScene>(mesh)) {
+  Vec3 low(std::numeric_limits<double>::max()), high(-std::numeric_limits<double>::max());
+  for (const Vec3& v : mesh.vertices) {
+    low = glm::min(low, v);
+    high = glm::max(high, v);
+  }
+  // Rays start on the element's plane: t_near skips the rounding of Embree's float hit test
+  // there (as the raycast form factors do), a millionth of the scene's size.
+  t_near_ = mesh.vertices.empty() ? 0.0 : 1e-6 * glm::length(high - low);
+  sources_.resize(mesh.size());
+  targets_.resize(mesh.size());
+  for (size_t e = 0; e < mesh.size(); ++e) {
+    targets_[e] = {mesh.normal[e], mesh.polygon[e]};
+    Source& s = sources_[e];
+    const std::span<const uint32_t> v = mesh.element_vertices(e);
+    s.normal = mesh.normal[e];
+    s.polygon = mesh.polygon[e];
+    s.fan = v.size() == 3 || v.size() == 4;
+    if (!s.fan) continue;
+    s.a = mesh.vertices[v[0]];
+    s.b = mesh.vertices[v[1]];
+    s.c = mesh.vertices[v[2]];
+    s.d = v.size() == 4 ? mesh.vertices[v[3]] : s.c;
+    const double first = glm::length(glm::cross(s.b - s.a, s.c - s.a));
+    const double second = v.size() == 4 ? glm::length(glm::cross(s.c - s.a, s.d - s.a)) : 0.0;
+    s.first_share = first + second > 0.0 ? first / (first + second) : 1.0;
+  }
+}
+
+Vec3 ElementRays::origin(const Source& s, size_t element, double u1, double u2) const {
+  if (!s.fan) return point_on_element(mesh_, element, u1, u2);
+  // The triangle by area, u1 rescaled to [0,1) within it (as point_on_element).
+  const bool first = u1 < s.first_share;
+  const double t = first ? u1 / s.first_share : (u1 - s.first_share) / (1.0 - s.first_share);
+  const double r = std::sqrt(std::clamp(t, 0.0, 0x1.fffffffffffffp-1));
+  const Vec3& b = first ? s.b : s.c;
+  const Vec3& c = first ? s.c : s.d;
+  return s.a * (1.0 - r) + b * (r * (1.0 - u2)) + c * (r * u2);
+}
+
+ElementRays::Ray ElementRays::ray(size_t source, const double* u) const {
+  const Source& s = sources_[source];
+  return {origin(s, source, u[1], u[2]), cosine_direction(s.normal, u[3], u[4]), s.polygon};
+}
+
+uint32_t ElementRays::cast(const Ray& ray) const {
+  double t_near = t_near_;
+  // A planar polygon cannot be met again by a ray leaving its front: a hit on the source's own
+  // polygon is rounding (a ray grazing it near an edge), so the ray goes on past it (a few
+  // times at most).
+  for (int attempt = 0; attempt < 4; ++attempt) {
+    const RayHit hit = embree_->intersect(ray.origin, ray.direction, t_near, 1e30);
+    if (!hit.hit) return kMiss;
+    const Target& met = targets_[hit.element];
+    if (met.polygon == ray.polygon) {
+      t_near = hit.distance + t_near_;
+      continue;
+    }
+    // Only a front face receives (F_ij is zero when j faces away from i): a back face absorbs.
+    return glm::dot(ray.direction, met.normal) < 0.0 ? hit.element : kMiss;
+  }
+  return kMiss;
+}
+
+ElementDistribution::ElementDistribution(std::span<const double> weights)
+    : cumulative_(weights.size()) {
+  double total = 0.0;
+  for (size_t i = 0; i < weights.size(); ++i) {
+    total += weights[i];
+    cumulative_[i] = total;
+  }
+  const size_t n = weights.size();
+  guide_.resize(n);
+  size_t i = 0;
+  for (size_t k = 0; k < n; ++k) {
+    const double target = double(k) / double(n) * total;
+    while (i + 1 < n && !(cumulative_[i] > target)) ++i;
+    guide_[k] = uint32_t(i);
+  }
+}
+
+size_t ElementDistribution::pick(double u) const {
+  const size_t n = cumulative_.size();
+  const double target = u * total();
+  // The first element whose cumulative weight exceeds u * total: from the guide's start, back
+  // while the one before also exceeds it (rounding of k/n), then on while this one does not.
+  size_t i = guide_[std::min(size_t(u * double(n)), n - 1)];
+  while (i > 0 && cumulative_[i - 1] > target) --i;
+  while (i + 1 < n && !(cumulative_[i] > target)) ++i;
+  while (i > 0 && cumulative_[i] == cumulative_[i - 1]) --i;  // rounding at the very top
+  return i;
+}
+
+}  // namespace radlab::monte_carlo

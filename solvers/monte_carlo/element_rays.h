@@ -1,0 +1,85 @@
+// The one visibility path of the Monte Carlo solvers (stochastic-jacobi's power propagation and
+// random-walk's walks): a ray from a uniform point on a mesh element in a cosine-distributed
+// direction (ray_sampler.h), its closest hit found by Embree on the run's mesh. A ray from
+// element i lands on the front face of element j with probability F_ij, the element-to-element
+// form factor of the discretised system, so every estimator built on it estimates that system.
+//
+// Also the discrete distribution over elements by power that both solvers draw sources from.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "formfactor/visibility/embree_scene.h"
+#include "scene/mesh.h"
+
+namespace radlab::monte_carlo {
+
+class ElementRays {
+ public:
+  static constexpr uint32_t kMiss = 0xFFFFFFFFu;
+
+  // `mesh` must outlive this object.
+  explicit ElementRays(const Mesh& mesh);
+
+  // The element whose front face the ray from a point on `source` meets first, or kMiss (an
+  // escape, or a back face: F_ij is zero where j faces away). u[1], u[2] place the origin,
+  // u[3], u[4] the direction (ray_sampler.h's kDimensions numbers; u[0] is the caller's).
+  uint32_t trace(size_t source, const double* u) const { return cast(ray(source, u)); }
+
+  // The same in two halves, for callers that make a batch of rays before casting any (their
+  // random memory accesses then overlap instead of waiting on one another).
+  struct Ray {
+    Vec3 origin, direction;
+    uint32_t polygon = 0;  // the source's
+  };
+  Ray ray(size_t source, const double* u) const;
+  uint32_t cast(const Ray& ray) const;
+
+ private:
+  // What a ray from an element needs, in one place: a ray's origin and direction then cost one
+  // memory access instead of the mesh's three dependent ones (element -> corner indices ->
+  // corners), which on random elements were a third of a ray's time beside Embree
+  // (bench_monte_carlo). A triangle or quad as the fan (a, b, c) + (a, c, d) and the first
+  // triangle's share of the area; other polygons (unsplit n-gons) go through point_on_element.
+  struct Source {
+    Vec3 a, b, c, d, normal;
+    double first_share = 1.0;
+    uint32_t polygon = 0;
+    bool fan = false;  // false: an n-gon, sampled through point_on_element
+  };
+  Vec3 origin(const Source& s, size_t element, double u1, double u2) const;
+  // What a hit needs of the element met, apart (one cache line, not the source's three).
+  struct Target {
+    Vec3 normal;
+    uint32_t polygon = 0;
+  };
+
+  const Mesh& mesh_;
+  std::vector<Source> sources_;
+  std::vector<Target> targets_;
+  std::unique_ptr<EmbreeScene> embree_;
+  double t_near_ = 0.0;
+};
+
+// Elements chosen with probability weight_i / sum_k weight_k (weights >= 0): the first element
+// whose cumulative weight exceeds u * total (elements of weight zero have empty intervals and are
+// never chosen), found through a guide table (Chen & Asau 1974): guide[k] is where that search
+// ends for u = k/n, so the search for u starts at guide[floor(u n)] and walks a step or two,
+// instead of a binary search's log2 n mispredicted branches. The same element as the binary
+// search, for every u.
+class ElementDistribution {
+ public:
+  explicit ElementDistribution(std::span<const double> weights);
+  double total() const { return cumulative_.empty() ? 0.0 : cumulative_.back(); }
+  // The element for u in [0,1).
+  size_t pick(double u) const;
+
+ private:
+  std::vector<double> cumulative_;
+  std::vector<uint32_t> guide_;
+};
+
+}  // namespace radlab::monte_carlo

@@ -1,0 +1,116 @@
+// Issue 32 items 3 and 4: the runner builds no form-factor matrix for a matrix-free (Monte Carlo)
+// solver when its reference needs none (`none`) or comes from the cache, asserted on the
+// problem's recorded preparation (Problem::preparation), not on timing; and the
+// `seconds_with_setup` column charges a run the matrix's recorded build time only once it has
+// read a row of it.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "core/param_bag.h"
+#include "experiments/problem/problem.h"
+#include "experiments/run/run_request.h"
+#include "experiments/run/runner.h"
+#include "solvers/registry.h"
+#include "tests/test_support.h"
+
+namespace radlab {
+namespace {
+
+bool did(const Problem& p, const std::string& stage) {
+  return std::find(p.preparation.begin(), p.preparation.end(), stage) != p.preparation.end();
+}
+
+ProblemSpec cube_spec(const testing::TempDir& cache) {
+  ProblemSpec spec;
+  spec.scene = "builtin:cube:rho=0.6";
+  spec.mesh.subdivisions = 3;
+  spec.cache_dir = cache.path().string();
+  return spec;
+}
+
+RunResult run(const std::string& solver_name, const std::vector<std::string>& params,
+              const Problem& p, long long steps) {
+  ParamBag bag = ParamBag::from_assignments(params, "solver");
+  auto solver = make_solver(solver_name, bag);
+  RunLabels labels{solver_name, p.spec.scene, solver_name, bag.canonical()};
+  Budget budget;
+  budget.steps = steps;
+  return run_solver(*solver, p, budget, CheckpointSchedule{}, labels, nullptr);
+}
+
+TEST(MatrixFreePreparation, ReferenceNoneBuildsNoMatrix) {
+  testing::TempDir cache;
+  for (const char* solver : {"stochastic-jacobi", "random-walk"}) {
+    ASSERT_TRUE(is_matrix_free(solver));
+    auto p = prepare_run_problem(cube_spec(cache), ReferenceChoice{"none"}, Budget{},
+                                 /*rows_read=*/false);
+    EXPECT_TRUE(p->preparation.empty()) << solver << ": " << p->preparation.front();
+    EXPECT_FALSE(p->has_matrix());
+    EXPECT_FALSE(p->reference.has_value());
+    const RunResult r = run(solver, {}, *p, 3);
+    EXPECT_EQ(r.rows, 0u);
+    EXPECT_GT(r.rays, 0u);
+  }
+  EXPECT_FALSE(is_matrix_free("jacobi"));
+  EXPECT_FALSE(is_matrix_free("hierarchical"));
+}
+
+TEST(MatrixFreePreparation, CachedReferenceIsStreamedWithoutAMatrix) {
+  testing::TempDir cache;
+  // An empty cache: the certified reference needs the matrix, built once for it and stored with
+  // the reference (rows on the fly: the method's own F, not symmetrised).
+  auto first = prepare_run_problem(cube_spec(cache), ReferenceChoice{}, Budget{}, false);
+  EXPECT_TRUE(did(*first, "matrix built"));
+  EXPECT_TRUE(did(*first, "reference computed"));
+  ASSERT_TRUE(first->reference.has_value());
+  // Then the reference comes from the cache, certified with rows on the fly: no matrix at all.
+  auto second = prepare_run_problem(cube_spec(cache), ReferenceChoice{}, Budget{}, false);
+  EXPECT_EQ(second->preparation, std::vector<std::string>{"reference streamed"});
+  EXPECT_FALSE(second->has_matrix());
+  ASSERT_TRUE(second->reference.has_value());
+  EXPECT_EQ(second->reference->kind, "certified");
+  for (size_t k = 0; k < first->reference->B.raw().size(); ++k)
+    ASSERT_EQ(first->reference->B.raw()[k], second->reference->B.raw()[k]);
+  // A solver that reads rows gets its matrix, loaded from the cache the first run filled.
+  auto flat = prepare_run_problem(cube_spec(cache), ReferenceChoice{}, Budget{}, true);
+  EXPECT_TRUE(did(*flat, "matrix loaded"));
+  EXPECT_FALSE(did(*flat, "matrix built"));
+  EXPECT_TRUE(flat->has_matrix());
+}
+
+TEST(SecondsWithSetup, ChargesTheMatrixBuildOnlyToRunsThatReadIt) {
+  testing::TempDir cache;
+  auto p = prepare_run_problem(cube_spec(cache), ReferenceChoice{}, Budget{}, true);
+  ASSERT_TRUE(p->has_matrix());
+  const double build = p->build.seconds;
+  ASSERT_GT(build, 0.0);
+  EXPECT_EQ(setup_seconds(*p, 0), 0.0);  // nothing read yet: nothing depended on
+  EXPECT_EQ(setup_seconds(*p, 1), build);
+  // A flat solver reads rows of the matrix: charged the build from its first row on.
+  const RunResult jacobi = run("jacobi", {}, *p, 40);
+  EXPECT_GT(jacobi.rows, 0u);
+  EXPECT_EQ(jacobi.setup_seconds, build);
+  EXPECT_EQ(jacobi.seconds_with_setup, jacobi.seconds + build);
+  ASSERT_GE(jacobi.history.size(), 2u);
+  EXPECT_EQ(jacobi.history.front().seconds_with_setup, jacobi.history.front().seconds);  // step 0
+  EXPECT_EQ(jacobi.history.back().seconds_with_setup, jacobi.history.back().seconds + build);
+  // On the same problem, a matrix-free solver and hierarchical radiosity read no row: nothing
+  // added (their rays and refinement are timed in their steps).
+  for (const char* solver : {"stochastic-jacobi", "hierarchical"}) {
+    const RunResult r = run(solver, {}, *p, 2);
+    EXPECT_EQ(r.rows, 0u) << solver;
+    EXPECT_EQ(r.setup_seconds, 0.0) << solver;
+    EXPECT_EQ(r.seconds_with_setup, r.seconds) << solver;
+  }
+  // Rows on the fly: computed (and timed) inside the steps, no matrix to charge.
+  auto streaming = prepare_run_problem(cube_spec(cache), ReferenceChoice{"none"}, Budget{}, true);
+  const RunResult on_the_fly = run("jacobi", {}, *streaming, 40);
+  EXPECT_GT(on_the_fly.rows, 0u);
+  EXPECT_EQ(on_the_fly.setup_seconds, 0.0);
+}
+
+}  // namespace
+}  // namespace radlab

@@ -1,0 +1,33 @@
+// A scene, its mesh and a System for the matrix-free (Monte Carlo) solvers' tests: their rows are
+// never read, so the form-factor method behind the System is there only because a System needs
+// one (the tests check that no row is read).
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "formfactor/methods/raycast.h"
+#include "scene/builtin/builtin_scenes.h"
+#include "scene/validate.h"
+#include "solvers/system.h"
+
+namespace radlab::testing {
+
+struct MatrixFree {
+  Scene scene;
+  Mesh mesh;
+  std::unique_ptr<RaycastFormFactors> method;
+  std::unique_ptr<System> system;
+};
+
+inline std::unique_ptr<MatrixFree> matrix_free(const std::string& spec, int subdiv) {
+  auto s = std::make_unique<MatrixFree>();
+  s->scene = make_builtin_scene(spec);
+  validate_scene(s->scene);
+  s->mesh = build_mesh(s->scene, {subdiv, 0.0});
+  s->method = std::make_unique<RaycastFormFactors>(s->scene, s->mesh, RaycastOptions{});
+  s->system = std::make_unique<System>(s->scene, s->mesh, *s->method);
+  return s;
+}
+
+}  // namespace radlab::testing
