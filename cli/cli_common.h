@@ -7,25 +7,9 @@
 #include <vector>
 
 #include "experiments/problem/problem.h"
+#include "experiments/problem/problem_options.h"
 
 namespace radlab::cli {
-
-struct SceneOptions {
-  std::string scene;
-  int subdiv = 1;
-  double element_size = 0.0;
-  std::string patches = "elements";  // --patches: two levels (solvers/two_level/patches.h)
-  double patch_size = 0.0;           // --patch-size, with --patches size
-  std::string patch_rows = "auto";   // --patch-rows: centre | mean (solvers/two_level/patch_rows.h)
-  bool keep_overlaps = false;        // --keep-overlaps: coincident polygons as they are (overlap.h)
-};
-
-struct FormFactorOptions {
-  std::string method = kDefaultFormFactorMethod;
-  std::vector<std::string> set;
-  std::string precision = "float";
-  std::string mode = "cached";
-};
 
 void add_scene_options(CLI::App& command, SceneOptions& options);
 // --subdiv and --element-size alone (add_scene_options adds them too), range-checked on the
@@ -40,8 +24,6 @@ void add_threads_option(CLI::App& app, int& threads);
 // Sets the limit for the rest of the process (a tbb::global_control kept until exit); 0 keeps
 // TBB's default (every core the process may run on).
 void apply_threads(int threads);
-
-ProblemSpec make_spec(const SceneOptions& scene, const FormFactorOptions& ff);
 
 // Creates the parent folder of `path` if it has one.
 void ensure_parent_folder(const std::string& path);

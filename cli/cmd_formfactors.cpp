@@ -31,7 +31,7 @@ struct SampleOptions {
 // whole matrix is out of reach (soda.mgf, 53,207 elements) can still be checked for light made.
 void check_sampled_rows(const SceneOptions& scene, const FormFactorOptions& ff,
                         const SampleOptions& sample) {
-  ProblemSpec spec = make_spec(scene, ff);
+  ProblemSpec spec = make_problem_spec(scene, ff);
   spec.need_reference = false;
   spec.require_emitter = false;
   spec.row_mode = RowMode::kOnTheFly;  // no matrix is built
@@ -166,7 +166,7 @@ void add_formfactors_command(CLI::App& app) {
       return;
     }
     if (!out->empty()) check_writable(*out);  // before the computation, not after it
-    ProblemSpec spec = make_spec(*scene, *ff);
+    ProblemSpec spec = make_problem_spec(*scene, *ff);
     spec.need_reference = false;
     spec.require_emitter = false;
     auto problem = prepare_problem(spec);

@@ -18,7 +18,7 @@ void add_reference_command(CLI::App& app) {
   command->add_option("--out", *out, "CSV element,area,B_r,B_g,B_b");
   command->callback([scene, ff, out]() {
     if (!out->empty()) check_writable(*out);  // before the computation, not after it
-    auto problem = prepare_problem(make_spec(*scene, *ff));
+    auto problem = prepare_problem(make_problem_spec(*scene, *ff));
     const Reference& r = *problem->reference;
     std::printf("reference    %s\n", r.summary().c_str());
     std::printf("bound        ||B - B*||_inf <= %.6g  (%.3g of max B)\n", r.bound_inf,

@@ -55,7 +55,7 @@ RunRequest request_of(const SolveOptions& o, int argc, char** argv) {
     throw UsageError("--width and --height must lie in [8, 8192], got " + std::to_string(o.width) +
                      " x " + std::to_string(o.height));
   RunRequest request;
-  request.problem = make_spec(o.scene, o.ff);
+  request.problem = make_problem_spec(o.scene, o.ff);
   request.reference = {o.reference, o.reference_feps, o.reference_aeps};
   request.solver = o.solver;
   request.solver_parameters = ParamBag::from_assignments(o.set, "solver '" + o.solver + "'");

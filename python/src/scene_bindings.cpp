@@ -10,6 +10,7 @@
 #include <cmath>
 
 #include "core/text.h"
+#include "experiments/problem/problem_options.h"
 #include "metrics/error_metrics.h"
 #include "python/src/arrays.h"
 #include "python/src/bindings.h"
@@ -143,19 +144,11 @@ void bind_scene(py::module_& m) {
                        bool keep_overlaps, const std::string& ff_method,
                        const std::vector<std::string>& ff_set, const std::string& precision,
                        const std::string& ff_mode, bool cache, const std::string& cache_dir) {
-             ProblemSpec spec;
-             spec.scene = scene;
-             spec.mesh.subdivisions = subdiv;
-             spec.mesh.element_size = element_size;
-             spec.keep_overlaps = keep_overlaps;
-             spec.patches.from = patches;
-             spec.patches.size = patch_size;
-             spec.patches.rows = patch_rows;
-             spec.patches.validate();
-             spec.ff_method = ff_method;
-             spec.ff_set = ff_set;
-             spec.precision = precision == "double" ? Precision::kDouble : Precision::kFloat;
-             spec.row_mode = ff_mode == "on-the-fly" ? RowMode::kOnTheFly : RowMode::kCached;
+             // The command line's options, read by the one function the CLI uses.
+             ProblemSpec spec =
+                 make_problem_spec(SceneOptions{scene, subdiv, element_size, patches, patch_size,
+                                                patch_rows, keep_overlaps},
+                                   FormFactorOptions{ff_method, ff_set, precision, ff_mode});
              spec.use_cache = cache;
              spec.cache_dir = cache_dir;
              py::gil_scoped_release release;
