@@ -216,15 +216,11 @@ std::string incomplete_sweep_reason(const fs::path& folder) {
   return "";
 }
 
-ReportPage write_report_page(const fs::path& folder) {
-  const std::string reason = incomplete_sweep_reason(folder);
-  if (!reason.empty()) throw InputError(reason);
-  const Json sweep = read_json_file((folder / "sweep.json").string());
-  const CsvTable summary = read_csv((folder / "summary.csv").string());
+namespace {
 
-  ReportPage page;
-  page.path = folder / "index.html";
-  page.runs = summary.rows.size();
+// The page's head and its first paragraph: the sweep's name, description, command, experiment
+// file, shard, runs and radlab's version.
+std::string header_section(const Json& sweep, size_t runs) {
   const std::string name = string_field(sweep, "name");
   std::string html = "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n";
   html += "<title>radlab: " + html_escape(name) + "</title>\n<style>" + kStyle + "</style>\n";
@@ -233,14 +229,12 @@ ReportPage write_report_page(const fs::path& folder) {
   if (!description.empty()) html += "<p>" + html_escape(description) + "</p>\n";
   html += "<p>Command: <code>" + html_escape(string_field(sweep, "command")) + "</code><br>\n";
   html += "Experiment file: <code>" + html_escape(string_field(sweep, "experiment")) + "</code>";
-  html += ", shard " + html_escape(string_field(sweep, "shard")) + ", " +
-          std::to_string(page.runs) + " of " + html_escape(string_field(sweep, "runs_total")) +
-          " runs";
+  html += ", shard " + html_escape(string_field(sweep, "shard")) + ", " + std::to_string(runs) +
+          " of " + html_escape(string_field(sweep, "runs_total")) + " runs";
   auto build = sweep.find("build");
   if (build != sweep.end() && build->is_object())
     html += ", radlab " + html_escape(string_field(*build, "git_sha"));
   html += "</p>\n";
-
   auto failed = sweep.find("failed");
   if (failed != sweep.end() && failed->is_array() && !failed->empty()) {
     html += "<h2 class=\"failed\">Failed runs</h2>\n<ul class=\"failed\">\n";
@@ -249,8 +243,12 @@ ReportPage write_report_page(const fs::path& folder) {
               "</code>: " + html_escape(string_field(f, "error")) + "</li>\n";
     html += "</ul>\n";
   }
+  return html;
+}
 
-  html += "<h2>Summary</h2>\n";
+// The summary: the overview columns, then every column folded away.
+std::string summary_section(const fs::path& folder, const CsvTable& summary) {
+  std::string html = "<h2>Summary</h2>\n";
   std::vector<size_t> overview, every;
   for (const std::string& column : kOverviewColumns) {
     auto it = std::find(summary.header.begin(), summary.header.end(), column);
@@ -260,8 +258,12 @@ ReportPage write_report_page(const fs::path& folder) {
   html += summary_table(folder, summary, overview, true);
   html += "<details><summary>every column of summary.csv (docs/outputs.md)</summary>\n" +
           summary_table(folder, summary, every, false) + "</details>\n";
+  return html;
+}
 
-  html += "<h2>Convergence</h2>\n";
+// The convergence plots, or how to draw them.
+std::string plots_section(const fs::path& folder, ReportPage& page) {
+  std::string html = "<h2>Convergence</h2>\n";
   const std::vector<std::string> plots = files_in(folder, "plots", ".png");
   page.plots = plots.size();
   if (plots.empty()) {
@@ -275,23 +277,43 @@ ReportPage write_report_page(const fs::path& folder) {
     for (const std::string& plot : plots) html += figure(plot);
     html += "</div>\n";
   }
+  return html;
+}
 
+// The contact sheet and each run's images, when there are any.
+std::string images_section(const fs::path& folder, ReportPage& page) {
   const std::vector<std::string> images = files_in(folder, "images", ".png");
   page.images = images.size();
-  if (is_file(folder / "contact_sheet.png") || !images.empty()) {
-    html += "<h2>Images</h2>\n";
-    if (is_file(folder / "contact_sheet.png"))
-      html += "<div class=\"grid plots\">\n" + figure("contact_sheet.png") + "</div>\n";
-    if (!images.empty()) {
-      html +=
-          "<p>Each run's display solution, its error in Cohen's colours and its p-error "
-          "(EXR beside each PNG; docs/outputs.md, \"Images\").</p>\n<div class=\"grid "
-          "images\">\n";
-      for (const std::string& image : images) html += figure(image);
-      html += "</div>\n";
-    }
+  const bool sheet = is_file(folder / "contact_sheet.png");
+  if (!sheet && images.empty()) return {};
+  std::string html = "<h2>Images</h2>\n";
+  if (sheet) html += "<div class=\"grid plots\">\n" + figure("contact_sheet.png") + "</div>\n";
+  if (!images.empty()) {
+    html +=
+        "<p>Each run's display solution, its error in Cohen's colours and its p-error "
+        "(EXR beside each PNG; docs/outputs.md, \"Images\").</p>\n<div class=\"grid "
+        "images\">\n";
+    for (const std::string& image : images) html += figure(image);
+    html += "</div>\n";
   }
+  return html;
+}
 
+}  // namespace
+
+ReportPage write_report_page(const fs::path& folder) {
+  const std::string reason = incomplete_sweep_reason(folder);
+  if (!reason.empty()) throw InputError(reason);
+  const Json sweep = read_json_file((folder / "sweep.json").string());
+  const CsvTable summary = read_csv((folder / "summary.csv").string());
+
+  ReportPage page;
+  page.path = folder / "index.html";
+  page.runs = summary.rows.size();
+  std::string html = header_section(sweep, page.runs);
+  html += summary_section(folder, summary);
+  html += plots_section(folder, page);
+  html += images_section(folder, page);
   std::vector<std::string> others = files_in(folder, "plots", ".pdf");
   for (const std::string& file : files_in(folder, "coverage", "")) others.push_back(file);
   html += files_section(folder, others);

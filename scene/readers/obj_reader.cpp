@@ -165,94 +165,134 @@ double count_faces(const std::string& path) {
 
 }  // namespace
 
-Scene read_obj(const std::string& path, const ObjOptions& options) {
-  LineReader reader(path);
-  check_limit("polygons", count_faces(path), path + ": the OBJ's faces ('f' lines)");
-  const fs::path folder = fs::path(path).parent_path();
-  std::error_code ec;
-  const fs::path given_root =
-      options.include_root.empty() ? folder : fs::path(options.include_root);
-  const fs::path root = fs::weakly_canonical(given_root.empty() ? fs::path(".") : given_root, ec);
-  if (ec) throw InputError(given_root.string() + ": cannot resolve the material library folder");
-  Scene scene;
-  scene.name = path;
-  std::map<std::string, int> by_name;
-  std::vector<Vec3> positions;
-  int current = -1;
-  int default_material = -1;
-  std::string line;
-  static const std::set<std::string_view> ignored = {"vt", "vn", "vp", "o",      "g",  "s",
-                                                     "l",  "p",  "mg", "cstype", "deg"};
-  while (reader.next(line)) {
-    auto tokens = text::split_whitespace(line);
-    if (tokens.empty() || tokens[0].front() == '#') continue;
-    const std::string_view key = tokens[0];
-    if (key == "v") {
-      if (tokens.size() < 4 || tokens.size() > 5) reader.fail("'v' needs 3 coordinates");
-      Vec3 p;
-      for (int i = 0; i < 3; ++i) {
-        auto v = text::parse_double(tokens[size_t(i + 1)]);
-        if (!v || !std::isfinite(*v))
-          reader.fail("'v': '" + std::string(tokens[size_t(i + 1)]) + "' is not a finite number");
-        p[i] = *v;
+namespace {
+
+// One OBJ file read statement by statement into a Scene: positions, faces, the current
+// material, and the material libraries (confined to `root`).
+class ObjParser {
+ public:
+  ObjParser(const std::string& path, const ObjOptions& options)
+      : path_(path), options_(options), reader_(path), folder_(fs::path(path).parent_path()) {
+    scene_.name = path;
+  }
+
+  Scene run() {
+    std::error_code ec;
+    const fs::path given_root =
+        options_.include_root.empty() ? folder_ : fs::path(options_.include_root);
+    root_ = fs::weakly_canonical(given_root.empty() ? fs::path(".") : given_root, ec);
+    if (ec) throw InputError(given_root.string() + ": cannot resolve the material library folder");
+    static const std::set<std::string_view> ignored = {"vt", "vn", "vp", "o",      "g",  "s",
+                                                       "l",  "p",  "mg", "cstype", "deg"};
+    std::string line;
+    while (reader_.next(line)) {
+      const auto tokens = text::split_whitespace(line);
+      if (tokens.empty() || tokens[0].front() == '#') continue;
+      const std::string_view key = tokens[0];
+      if (key == "v")
+        vertex(tokens);
+      else if (key == "f")
+        face(tokens);
+      else if (key == "usemtl")
+        use_material(line, tokens);
+      else if (key == "mtllib")
+        material_libraries(tokens);
+      else if (!ignored.count(key))
+        reader_.fail("unknown statement '" + std::string(key).substr(0, 24) + "'");
+    }
+    if (scene_.polygons.empty()) throw InputError(path_ + ": no faces ('f' lines) in the file");
+    // The OBJ first, then its material libraries in the order they were read.
+    scene_.sources.insert(scene_.sources.begin(), reader_.source());
+    return std::move(scene_);
+  }
+
+ private:
+  using Tokens = std::vector<std::string_view>;
+
+  void vertex(const Tokens& tokens) {
+    if (tokens.size() < 4 || tokens.size() > 5) reader_.fail("'v' needs 3 coordinates");
+    Vec3 p;
+    for (int i = 0; i < 3; ++i) {
+      auto v = text::parse_double(tokens[size_t(i + 1)]);
+      if (!v || !std::isfinite(*v))
+        reader_.fail("'v': '" + std::string(tokens[size_t(i + 1)]) + "' is not a finite number");
+      p[i] = *v;
+    }
+    positions_.push_back(p);
+  }
+
+  void face(const Tokens& tokens) {
+    if (tokens.size() < 4) reader_.fail("'f' needs at least 3 vertices");
+    Polygon polygon;
+    for (size_t i = 1; i < tokens.size(); ++i) {
+      std::string_view ref = tokens[i].substr(0, tokens[i].find('/'));
+      auto index = text::parse_int(ref);
+      if (!index || *index == 0)
+        reader_.fail("'f': '" + std::string(tokens[i]) + "' is not a vertex reference");
+      const auto count = static_cast<long long>(positions_.size());
+      long long k = *index > 0 ? *index - 1 : count + *index;
+      if (k < 0 || k >= count)
+        reader_.fail("'f': vertex " + std::to_string(*index) + " does not exist (" +
+                     std::to_string(positions_.size()) + " vertices so far)");
+      polygon.vertices.push_back(positions_[size_t(k)]);
+    }
+    if (current_ < 0) {
+      if (default_material_ < 0) {
+        scene_.materials.push_back(Material{"(default)", Rgb(0.5), Rgb(0.0)});
+        default_material_ = int(scene_.materials.size() - 1);
+        log::warning(path_ + ":" + std::to_string(reader_.number) +
+                     ": face without 'usemtl': using a grey reflectance 0.5, no emission");
       }
-      positions.push_back(p);
-    } else if (key == "f") {
-      if (tokens.size() < 4) reader.fail("'f' needs at least 3 vertices");
-      Polygon polygon;
-      for (size_t i = 1; i < tokens.size(); ++i) {
-        std::string_view ref = tokens[i].substr(0, tokens[i].find('/'));
-        auto index = text::parse_int(ref);
-        if (!index || *index == 0)
-          reader.fail("'f': '" + std::string(tokens[i]) + "' is not a vertex reference");
-        const auto count = static_cast<long long>(positions.size());
-        long long k = *index > 0 ? *index - 1 : count + *index;
-        if (k < 0 || k >= count)
-          reader.fail("'f': vertex " + std::to_string(*index) + " does not exist (" +
-                      std::to_string(positions.size()) + " vertices so far)");
-        polygon.vertices.push_back(positions[size_t(k)]);
-      }
-      if (current < 0) {
-        if (default_material < 0) {
-          scene.materials.push_back(Material{"(default)", Rgb(0.5), Rgb(0.0)});
-          default_material = int(scene.materials.size() - 1);
-          log::warning(path + ":" + std::to_string(reader.number) +
-                       ": face without 'usemtl': using a grey reflectance 0.5, no emission");
-        }
-        current = default_material;
-      }
-      polygon.material = current;
-      polygon.origin = path + ":" + std::to_string(reader.number);
-      scene.polygons.push_back(std::move(polygon));
-    } else if (key == "usemtl") {
-      if (tokens.size() < 2) reader.fail("'usemtl' needs a material name");
-      std::string name(text::trim(std::string_view(line).substr(line.find("usemtl") + 6)));
-      auto it = by_name.find(name);
-      if (it == by_name.end())
-        reader.fail("'usemtl': material '" + name + "' is not defined by any 'mtllib' before it");
-      current = it->second;
-    } else if (key == "mtllib") {
-      if (tokens.size() < 2) reader.fail("'mtllib' needs a file name");
-      for (size_t i = 1; i < tokens.size(); ++i) {
-        // An absolute name replaces the folder (operator/): confined like a relative one.
-        const fs::path lib = folder / std::string(tokens[i]);
-        if (!fs::is_regular_file(lib, ec))
-          reader.fail("'mtllib': material library '" + lib.string() +
-                      "' not found (or not a regular file)");
-        if (!path_within(fs::weakly_canonical(lib, ec), root))
-          reader.fail("'mtllib': '" + lib.lexically_normal().string() +
-                      "' lies outside the scene's folder " + root.string() +
-                      " (to read it, name a folder that holds both with --mgf-include-root DIR)");
-        read_mtl(lib.string(), scene, by_name, options.print_warnings);
-      }
-    } else if (!ignored.count(key)) {
-      reader.fail("unknown statement '" + std::string(key).substr(0, 24) + "'");
+      current_ = default_material_;
+    }
+    polygon.material = current_;
+    polygon.origin = path_ + ":" + std::to_string(reader_.number);
+    scene_.polygons.push_back(std::move(polygon));
+  }
+
+  void use_material(const std::string& line, const Tokens& tokens) {
+    if (tokens.size() < 2) reader_.fail("'usemtl' needs a material name");
+    std::string name(text::trim(std::string_view(line).substr(line.find("usemtl") + 6)));
+    auto it = by_name_.find(name);
+    if (it == by_name_.end())
+      reader_.fail("'usemtl': material '" + name + "' is not defined by any 'mtllib' before it");
+    current_ = it->second;
+  }
+
+  void material_libraries(const Tokens& tokens) {
+    if (tokens.size() < 2) reader_.fail("'mtllib' needs a file name");
+    std::error_code ec;
+    for (size_t i = 1; i < tokens.size(); ++i) {
+      // An absolute name replaces the folder (operator/): confined like a relative one.
+      const fs::path lib = folder_ / std::string(tokens[i]);
+      if (!fs::is_regular_file(lib, ec))
+        reader_.fail("'mtllib': material library '" + lib.string() +
+                     "' not found (or not a regular file)");
+      if (!path_within(fs::weakly_canonical(lib, ec), root_))
+        reader_.fail("'mtllib': '" + lib.lexically_normal().string() +
+                     "' lies outside the scene's folder " + root_.string() +
+                     " (to read it, name a folder that holds both with --mgf-include-root DIR)");
+      read_mtl(lib.string(), scene_, by_name_, options_.print_warnings);
     }
   }
-  if (scene.polygons.empty()) throw InputError(path + ": no faces ('f' lines) in the file");
-  // The OBJ first, then its material libraries in the order they were read.
-  scene.sources.insert(scene.sources.begin(), reader.source());
-  return scene;
+
+  const std::string& path_;
+  const ObjOptions& options_;
+  LineReader reader_;
+  fs::path folder_, root_;
+  Scene scene_;
+  std::map<std::string, int> by_name_;
+  std::vector<Vec3> positions_;
+  int current_ = -1;           // the material of the faces that follow
+  int default_material_ = -1;  // made at the first face without 'usemtl'
+};
+
+}  // namespace
+
+Scene read_obj(const std::string& path, const ObjOptions& options) {
+  ObjParser parser(path, options);  // opens the file: refuses what is not a regular file first
+  check_limit("polygons", count_faces(path), path + ": the OBJ's faces ('f' lines)");
+  return parser.run();
 }
 
 }  // namespace radlab
