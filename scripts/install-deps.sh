@@ -25,9 +25,10 @@ test_packages=(
   libgtest-dev libbenchmark-dev clang-format
   snakemake  # workflow/Snakefile and its test (76 packages, 682 MB with python3-azure)
   # The Python module (python/, docs/python.md): pybind11 to build it, scipy for its matrices,
-  # pytest and nbconvert/ipykernel for its tests and notebooks.
+  # pytest and nbconvert/ipykernel for its tests and notebooks, tomli-w for experiments given as
+  # dicts.
   pybind11-dev python3-pybind11 python3-dev python3-scipy python3-pytest python3-nbconvert
-  python3-ipykernel
+  python3-ipykernel python3-tomli-w
 )
 
 case "${1:-test}" in

@@ -3,6 +3,7 @@
 import os
 import tempfile
 import time
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -172,9 +173,34 @@ class Experiment:
                 f"{len(self.failures)} failed)")
 
 
-def run_experiment(path, out=None, overwrite=False):
-    """Runs an experiment file (`radlab run PATH --out OUT`, docs/experiments.md) in this process,
-    so solvers registered from Python may be named in it. Returns an Experiment."""
-    path = _checks.path("path", path)
-    out = "" if out is None else _checks.path("out", out)
+def run_experiment(experiment, out=None, overwrite=False):
+    """Runs an experiment (`radlab run PATH --out OUT`, docs/experiments.md) in this process, so
+    solvers registered from Python may be named in it. Returns an Experiment.
+
+    `experiment` is an experiment file's path, or the same as a dict (the TOML file's tables as
+    dicts, its arrays as lists). A dict needs `out`: it is written, as TOML, to the file OUT.toml
+    beside the output folder, which the sweep then names as its experiment file (its bytes are
+    part of the sweep's identity, as a file's are), so the run can be repeated from the command
+    line."""
+    if isinstance(experiment, Mapping):
+        if out is None:
+            raise ValueError("run_experiment: an experiment given as a dict needs out= (its TOML "
+                             "is written beside the output folder, as OUT.toml)")
+        out = _checks.path("out", out)
+        try:
+            import tomli_w
+        except ImportError as e:
+            raise ImportError("run_experiment: an experiment given as a dict is written with "
+                              "tomli_w (Debian: apt-get install python3-tomli-w)") from e
+        try:
+            text = tomli_w.dumps(dict(experiment))
+        except TypeError as e:
+            raise TypeError(f"run_experiment: the experiment dict cannot be written as TOML: {e}")
+        path = out.rstrip(os.sep) + ".toml"
+        os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(text)
+    else:
+        path = _checks.path("path", experiment)
+        out = "" if out is None else _checks.path("out", out)
     return Experiment(_radlab.run_experiment(path, out, bool(overwrite)))
