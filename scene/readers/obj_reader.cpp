@@ -1,5 +1,6 @@
 #include "scene/readers/obj_reader.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -202,7 +203,10 @@ class ObjParser {
     }
     if (scene_.polygons.empty()) throw InputError(path_ + ": no faces ('f' lines) in the file");
     // The OBJ first, then its material libraries in the order they were read.
-    scene_.sources.insert(scene_.sources.begin(), reader_.source());
+    // (push_back and rotate: GCC 12 sees a null dereference that is not there in an insert at
+    // the front of this vector.)
+    scene_.sources.push_back(reader_.source());
+    std::rotate(scene_.sources.begin(), scene_.sources.end() - 1, scene_.sources.end());
     return std::move(scene_);
   }
 
