@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <string>
 
@@ -21,6 +22,9 @@ constexpr double kAtriumLo = 4.0, kAtriumHi = 8.0;  // the void through the slab
 // Desks: 2 x 1 m blocks from 0.5 to 1 m, two columns beside the atrium, four rows.
 constexpr double kDeskX[2] = {1.0, 9.0};
 constexpr double kDeskZ[4] = {1.0, 4.5, 8.0, 10.5};
+
+// A patch's material from its box (lo, hi corners).
+using MaterialOf = std::function<int(const Vec3&, const Vec3&)>;
 
 struct Materials {
   int wall, ceiling, floor, edge, desk, lamp;
@@ -50,9 +54,9 @@ class FloorsBuilder {
   }
 
   // The rectangle o + s u + t v (s, t in [0,1]) as patches whose front side faces along
-  // `facing`; material_of(centre) picks each patch's material.
-  void grid(const Vec3& o, Vec3 u, Vec3 v, const Vec3& facing,
-            const std::function<int(const Vec3&)>& material_of, const std::string& name) {
+  // `facing`; material_of(box) picks each patch's material.
+  void grid(const Vec3& o, Vec3 u, Vec3 v, const Vec3& facing, const MaterialOf& material_of,
+            const std::string& name) {
     int nu = pieces(glm::length(u)), nv = pieces(glm::length(v));
     if (counting_) {
       counted_ += double(nu) * double(nv);
@@ -65,22 +69,22 @@ class FloorsBuilder {
     for (int j = 0; j < nv; ++j)
       for (int i = 0; i < nu; ++i) {
         auto at = [&](double a, double b) { return o + u * (a / nu) + v * (b / nv); };
-        scene_.polygons.push_back(
-            Polygon{{at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)},
-                    material_of(at(i + 0.5, j + 0.5)),
-                    name + "[" + std::to_string(i) + "," + std::to_string(j) + "]"});
+        scene_.polygons.push_back(Polygon{
+            {at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)},
+            material_of(glm::min(at(i, j), at(i + 1, j + 1)), glm::max(at(i, j), at(i + 1, j + 1))),
+            name + "[" + std::to_string(i) + "," + std::to_string(j) + "]"});
       }
   }
 
   // A horizontal rectangle [x0,x1] x [z0,z1] at height y facing up or down.
   void horizontal(double x0, double x1, double z0, double z1, double y, bool up,
-                  const std::function<int(const Vec3&)>& material_of, const std::string& name) {
+                  const MaterialOf& material_of, const std::string& name) {
     grid({x0, y, z0}, {x1 - x0, 0, 0}, {0, 0, z1 - z0}, {0, up ? 1.0 : -1.0, 0}, material_of, name);
   }
 
   // A horizontal surface over the footprint, around the atrium or solid.
-  void plate(double y, bool up, bool with_atrium,
-             const std::function<int(const Vec3&)>& material_of, const std::string& name) {
+  void plate(double y, bool up, bool with_atrium, const MaterialOf& material_of,
+             const std::string& name) {
     if (!with_atrium) {
       horizontal(0, kWidth, 0, kWidth, y, up, material_of, name);
       return;
@@ -94,7 +98,7 @@ class FloorsBuilder {
   // The four vertical faces of the box [lo, hi] whose front sides face out of it (outward) or
   // into it.
   void sides(const Vec3& lo, const Vec3& hi, bool outward, int material, const std::string& name) {
-    const auto same = [material](const Vec3&) { return material; };
+    const auto same = [material](const Vec3&, const Vec3&) { return material; };
     const Vec3 dy(0, hi.y - lo.y, 0), dx(hi.x - lo.x, 0, 0), dz(0, 0, hi.z - lo.z);
     const double out = outward ? 1.0 : -1.0;
     grid(lo, dx, dy, {0, 0, -out}, same, name + "/zmin");
@@ -108,13 +112,20 @@ class FloorsBuilder {
     const double y0 = s * kStorey, y1 = y0 + kRoom;
     const bool ground = s == 0, roof = s + 1 == storeys;
     plate(
-        y0, true, !ground, [&](const Vec3&) { return m.floor; }, n + "/floor");
+        y0, true, !ground, [&](const Vec3&, const Vec3&) { return m.floor; }, n + "/floor");
     plate(
         y1, false, !roof,
-        [&](const Vec3& c) {
+        [&](const Vec3& lo, const Vec3& hi) {
+          // A luminaire: a patch covering at least half of a lamp's square or half of itself
+          // lies in it (at the default patch, the four patches of each 1 m^2 square; at a coarse
+          // patch, the one or two patches holding it, so every patch size has lamps).
+          const double area = (hi.x - lo.x) * (hi.z - lo.z);
           for (double x0 : kDeskX)
-            for (double z0 : kDeskZ)
-              if (c.x >= x0 + 0.5 && c.x <= x0 + 1.5 && c.z >= z0 && c.z <= z0 + 1.0) return m.lamp;
+            for (double z0 : kDeskZ) {
+              const double ox = std::min(hi.x, x0 + 1.5) - std::max(lo.x, x0 + 0.5);
+              const double oz = std::min(hi.z, z0 + 1.0) - std::max(lo.z, z0);
+              if (ox > 0 && oz > 0 && ox * oz >= 0.5 * std::min(area, 1.0)) return m.lamp;
+            }
           return m.ceiling;
         },
         n + "/ceiling");
@@ -129,7 +140,7 @@ class FloorsBuilder {
       for (double z0 : kDeskZ) {
         const std::string dn = n + "/desk" + std::to_string(d++);
         const double lo = y0 + 0.5, hi = y0 + 1.0;
-        const auto desk = [&](const Vec3&) { return m.desk; };
+        const auto desk = [&](const Vec3&, const Vec3&) { return m.desk; };
         horizontal(x0, x0 + 2.0, z0, z0 + 1.0, hi, true, desk, dn + "/top");
         horizontal(x0, x0 + 2.0, z0, z0 + 1.0, lo, false, desk, dn + "/bottom");
         sides({x0, lo, z0}, {x0 + 2.0, hi, z0 + 1.0}, true, m.desk, dn);

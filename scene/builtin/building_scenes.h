@@ -9,12 +9,13 @@
 // below the roof, solid at the roof), four outer walls, the four faces of the slab's edge around
 // the atrium (not under the roof), eight desks (solid 2 x 1 x 0.5 m blocks at 0.5 m, all six
 // faces; their legs are left out so nothing rests on the floor) and eight 1 x 1 m luminaires set
-// into the ceiling, one over each desk. Every surface is split into patches of about `patch`
-// metres (at least one along each edge), as the paper scenes are. At the default patch 0.5 every
-// coordinate is a multiple of 0.5 m, so areas are exact in double: N storeys have
-// 1,856 N + 96 polygons and 464 N + 24 m^2 (a middle storey's 1,856 and 464; the ground's solid
-// floor and the roof add 64 + 64 and 16 + 16, the roof's missing slab edge takes 32 and 8), and
-// N = 108 passes 200,000 polygons.
+// into the ceiling, one over each desk (the ceiling patches covering half a lamp's square or half
+// of themselves with it: exactly the square at the default patch, a patch or two at coarse ones).
+// Every surface is split into patches of about `patch` metres (at least one along each edge), as
+// the paper scenes are. At the default patch 0.5 every coordinate is a multiple of 0.5 m, so areas
+// are exact in double: N storeys have 1,856 N + 96 polygons and 464 N + 24 m^2 (a middle storey's
+// 1,856 and 464; the ground's solid floor and the roof add 64 + 64 and 16 + 16, the roof's missing
+// slab edge takes 32 and 8), and N = 108 passes 200,000 polygons.
 //
 // The building is closed: every ray leaving a front side into the free space meets a front side
 // (tested). Materials are RGB (walls, ceiling, floor, slab edge, desk, luminaire); light_scale

@@ -55,6 +55,15 @@ TEST(FloorsScene, CountAndAreaGrowExactlyLinearlyInTheStoreys) {
     EXPECT_FALSE(scene.is_grey());
     EXPECT_TRUE(scene.camera.has_value());
   }
+  // Every patch size has its luminaires: at coarse patches, the one or two ceiling patches
+  // holding each lamp's square.
+  for (const char* patch : {"1", "2", "3", "5"}) {
+    const Scene scene = make_builtin_scene(std::string("floors:k=2,patch=") + patch);
+    size_t lamps = 0;
+    for (const Polygon& p : scene.polygons)
+      lamps += scene.materials[size_t(p.material)].emission.x > 0 ? 1 : 0;
+    EXPECT_GE(lamps, 16u) << "patch " << patch;
+  }
   // 200,000 polygons at k = 108 (the family's top, issue 33), counted without the scene.
   EXPECT_GE(1856 * 108 + 96, 200000);
 }
