@@ -116,15 +116,17 @@ class FloorsBuilder {
     plate(
         y1, false, !roof,
         [&](const Vec3& lo, const Vec3& hi) {
-          // A luminaire: a patch covering at least half of a lamp's square or half of itself
-          // lies in it (at the default patch, the four patches of each 1 m^2 square; at a coarse
-          // patch, the one or two patches holding it, so every patch size has lamps).
+          // A luminaire: a patch lying at least half in a lamp's square, or holding the square's
+          // centre (in its half-open box). At the default patch, exactly the square's four
+          // patches; at coarse ones, the patch or two around it, so every patch size has lamps.
           const double area = (hi.x - lo.x) * (hi.z - lo.z);
           for (double x0 : kDeskX)
             for (double z0 : kDeskZ) {
+              const double cx = x0 + 1.0, cz = z0 + 0.5;
+              if (lo.x <= cx && cx < hi.x && lo.z <= cz && cz < hi.z) return m.lamp;
               const double ox = std::min(hi.x, x0 + 1.5) - std::max(lo.x, x0 + 0.5);
               const double oz = std::min(hi.z, z0 + 1.0) - std::max(lo.z, z0);
-              if (ox > 0 && oz > 0 && ox * oz >= 0.5 * std::min(area, 1.0)) return m.lamp;
+              if (ox > 0 && oz > 0 && ox * oz >= 0.5 * area) return m.lamp;
             }
           return m.ceiling;
         },

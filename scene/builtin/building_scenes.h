@@ -9,8 +9,8 @@
 // below the roof, solid at the roof), four outer walls, the four faces of the slab's edge around
 // the atrium (not under the roof), eight desks (solid 2 x 1 x 0.5 m blocks at 0.5 m, all six
 // faces; their legs are left out so nothing rests on the floor) and eight 1 x 1 m luminaires set
-// into the ceiling, one over each desk (the ceiling patches covering half a lamp's square or half
-// of themselves with it: exactly the square at the default patch, a patch or two at coarse ones).
+// into the ceiling, one over each desk (the ceiling patches lying half in a lamp's square or
+// holding its centre: exactly the square at the default patch, a patch or two at coarse ones).
 // Every surface is split into patches of about `patch` metres (at least one along each edge), as
 // the paper scenes are. At the default patch 0.5 every coordinate is a multiple of 0.5 m, so areas
 // are exact in double: N storeys have 1,856 N + 96 polygons and 464 N + 24 m^2 (a middle storey's

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <limits>
 #include <numbers>
@@ -55,14 +56,29 @@ TEST(FloorsScene, CountAndAreaGrowExactlyLinearlyInTheStoreys) {
     EXPECT_FALSE(scene.is_grey());
     EXPECT_TRUE(scene.camera.has_value());
   }
-  // Every patch size has its luminaires: at coarse patches, the one or two ceiling patches
-  // holding each lamp's square.
-  for (const char* patch : {"1", "2", "3", "5"}) {
+  // Every patch size has its luminaires: each lamp's 1 m^2 square (x0 + 0.5 .. x0 + 1.5,
+  // z0 .. z0 + 1 over each desk) has its centre on an emitting ceiling patch of every storey (at
+  // coarse patches one patch may hold two lamps, so patches are not counted).
+  for (const char* patch : {"0.5", "1", "2", "3", "5"}) {
     const Scene scene = make_builtin_scene(std::string("floors:k=2,patch=") + patch);
-    size_t lamps = 0;
-    for (const Polygon& p : scene.polygons)
-      lamps += scene.materials[size_t(p.material)].emission.x > 0 ? 1 : 0;
-    EXPECT_GE(lamps, 16u) << "patch " << patch;
+    for (int storey = 0; storey < 2; ++storey)
+      for (double x0 : {1.0, 9.0})
+        for (double z0 : {1.0, 4.5, 8.0, 10.5}) {
+          const Vec3 centre(x0 + 1.0, storey * 3.5 + 3.0, z0 + 0.5);
+          bool lit = false;
+          for (const Polygon& p : scene.polygons) {
+            if (!(scene.materials[size_t(p.material)].emission.x > 0)) continue;
+            Vec3 lo = p.vertices[0], hi = p.vertices[0];
+            for (const Vec3& v : p.vertices) {
+              lo = glm::min(lo, v);
+              hi = glm::max(hi, v);
+            }
+            lit |= lo.y == centre.y && hi.y == centre.y && lo.x <= centre.x && centre.x <= hi.x &&
+                   lo.z <= centre.z && centre.z <= hi.z;
+          }
+          EXPECT_TRUE(lit) << "patch " << patch << ", storey " << storey << ", lamp at " << x0
+                           << " " << z0;
+        }
   }
   // 200,000 polygons at k = 108 (the family's top, issue 33), counted without the scene.
   EXPECT_GE(1856 * 108 + 96, 200000);
