@@ -39,6 +39,23 @@ void skip_polygons(const RTCFilterFunctionNArguments* args) {
   }
 }
 
+// Per-segment polygons to ignore (occluded16_each): the lane is the ray's id.
+struct SkipEachContext {
+  RTCIntersectContext context;  // first member, as above
+  const uint32_t* triangle_polygon;
+  uint32_t skip_a[16], skip_b[16];
+};
+
+void skip_polygons_each(const RTCFilterFunctionNArguments* args) {
+  const auto* skip = reinterpret_cast<const SkipEachContext*>(args->context);
+  for (unsigned k = 0; k < args->N; ++k) {
+    if (args->valid[k] == 0) continue;
+    const unsigned lane = RTCRayN_id(args->ray, args->N, k) & 15u;
+    const uint32_t polygon = skip->triangle_polygon[RTCHitN_primID(args->hit, args->N, k)];
+    if (polygon == skip->skip_a[lane] || polygon == skip->skip_b[lane]) args->valid[k] = 0;
+  }
+}
+
 // The same, and the two planes whose own hits are ignored (occluded16_off_planes).
 struct OffPlanesContext {
   SkipContext skip;  // first member, as above
@@ -148,6 +165,20 @@ void EmbreeScene::occluded16(const SegmentPacket& packet, bool* out, uint32_t sk
   skip.skip_a = skip_a;
   skip.skip_b = skip_b;
   if (skip_a != kNoPolygon || skip_b != kNoPolygon) skip.context.filter = skip_polygons;
+  occluded16_with(packet, out, &skip.context);
+}
+
+void EmbreeScene::occluded16_each(const SegmentPacket& packet, bool* out, const uint32_t* skip_a,
+                                  const uint32_t* skip_b) const {
+  SkipEachContext skip;
+  rtcInitIntersectContext(&skip.context);
+  skip.context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  skip.triangle_polygon = triangle_polygon_.data();
+  for (int k = 0; k < 16; ++k) {
+    skip.skip_a[k] = k < packet.count ? skip_a[k] : kNoPolygon;
+    skip.skip_b[k] = k < packet.count ? skip_b[k] : kNoPolygon;
+  }
+  skip.context.filter = skip_polygons_each;
   occluded16_with(packet, out, &skip.context);
 }
 

@@ -46,6 +46,11 @@ class EmbreeScene {
   void occluded16(const SegmentPacket& packet, bool* out, uint32_t skip_a = kNoPolygon,
                   uint32_t skip_b = kNoPolygon) const;
 
+  // As occluded16, with the two polygons to ignore given per segment: skip_a[k] and skip_b[k]
+  // for segment k (hierarchical radiosity's clusters join points of different polygons).
+  void occluded16_each(const SegmentPacket& packet, bool* out, const uint32_t* skip_a,
+                       const uint32_t* skip_b) const;
+
   // As occluded16, and hits that lie in either plane (point, unit normal) are ignored too: on a
   // triangle within ~0.8 degrees of parallel to it, at most `tolerance` from it. For the short
   // pieces of segments next to their ends (Visibility: what the ends' offsets leave out), where a

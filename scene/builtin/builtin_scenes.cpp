@@ -7,6 +7,7 @@
 
 #include "core/error.h"
 #include "core/text.h"
+#include "scene/builtin/building_scenes.h"
 #include "scene/builtin/paper_scenes.h"
 #include "scene/builtin/stability_scenes.h"
 #include "scene/geometry.h"
@@ -233,6 +234,13 @@ const std::vector<BuiltinScene>& builtin_scenes() {
         {"rho_scale", "1", "multiplies every reflectance (must stay <= 1)"},
         {"patch", "0.9", "target patch edge (m); the element target assumes the default"}},
        make_computer_room_scene},
+      {"floors",
+       "k office storeys stacked around an open atrium (scaling family; closed; RGB): "
+       "1,856 k + 96 polygons",
+       {{"k", "4", "number of storeys (>= 1)"},
+        {"patch", "0.5", "target patch edge (m); the polygon count assumes the default"},
+        {"light_scale", "1", "multiplies the luminaires' emission (12, 11.5, 10)"}},
+       make_floors_scene},
       // Stiff and extreme cases for the stability table (scene/builtin/stability_scenes.h).
       {"tiny-light",
        "4 x 3 x 5 m closed room lit only by a tiny, very bright square below the ceiling (grey)",

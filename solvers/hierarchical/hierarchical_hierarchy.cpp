@@ -30,20 +30,23 @@ size_t Hierarchy::memory_bytes() const {
                           sizeof(uint64_t) +
                           // the key index: a node, its key and a bucket pointer
                           sizeof(NodeKey) + sizeof(uint32_t) + 2 * sizeof(void*);
-  return size() * (per_node + sizeof(double)) +
+  return size() * (per_node + sizeof(double)) + clusters * sizeof(Vec3) +
          source.size() * (sizeof(uint32_t) + sizeof(double) + sizeof(uint8_t));
 }
 
 Hierarchy build_hierarchy(const std::vector<Chart>& charts, const std::vector<LinkRecord>& links,
                           const Hierarchy* previous, const std::vector<Rgb>& chart_emission,
-                          const std::vector<Rgb>& chart_reflectance, int channels) {
+                          const std::vector<Rgb>& chart_reflectance, int channels,
+                          const ClusterTree* clusters) {
   Hierarchy h;
   h.channels = channels;
+  const size_t NC = clusters ? clusters->size() : 0;
   std::unordered_set<NodeKey, NodeKeyHash> set;
   set.reserve(charts.size() + 2 * links.size());
   for (uint32_t c = 0; c < charts.size(); ++c) set.insert({c, 0, 0});
   std::vector<NodeKey> pending;
   auto add_with_ancestors = [&](NodeKey k) {
+    if (k.is_cluster()) return;  // every cluster is a node anyway
     while (set.insert(k).second && k.depth > 0) k = k.parent();
   };
   for (const LinkRecord& l : links) {
@@ -59,26 +62,48 @@ Hierarchy build_hierarchy(const std::vector<Chart>& charts, const std::vector<Li
     }
   h.key.assign(set.begin(), set.end());
   std::sort(h.key.begin(), h.key.end(), dfs_less);
+  if (NC > 0) {
+    std::vector<NodeKey> keys(NC);
+    for (size_t c = 0; c < NC; ++c) keys[c] = NodeKey::cluster(uint32_t(c));
+    keys.insert(keys.end(), h.key.begin(), h.key.end());
+    h.key.swap(keys);
+  }
+  h.clusters = NC;
   const size_t n = h.key.size();
   h.index.reserve(n);
   for (size_t i = 0; i < n; ++i) h.index.emplace(h.key[i], uint32_t(i));
   h.parent.assign(n, -1);
   h.child.assign(n, {-1, -1, -1, -1});
   h.chart_first.assign(charts.size() + 1, uint32_t(n));
-  for (size_t i = n; i-- > 0;) h.chart_first[h.key[i].chart] = uint32_t(i);
+  for (size_t i = n; i-- > NC;) h.chart_first[h.key[i].chart] = uint32_t(i);
   h.area.resize(n);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 512),
+  tbb::parallel_for(tbb::blocked_range<size_t>(NC, n, 512),
                     [&](const tbb::blocked_range<size_t>& r) {
                       for (size_t i = r.begin(); i < r.end(); ++i)
                         h.area[i] = node_geometry(charts, h.key[i]).area;
                     });
-  for (size_t i = 0; i < n; ++i) {
+  for (size_t i = NC; i < n; ++i) {
     const NodeKey& k = h.key[i];
     if (k.depth == 0) continue;
     const uint32_t p = h.index.at(k.parent());
     h.parent[i] = int32_t(p);
     h.child[p][size_t(k.digit(k.depth))] = int32_t(i);
   }
+  // Clusters: parents, children (a chart child is its root node) and areas, children first.
+  h.cluster_centre.resize(NC);
+  for (size_t c = 0; c < NC; ++c) {
+    const Cluster& cl = clusters->clusters[c];
+    h.parent[c] = cl.parent;
+    h.cluster_centre[c] = cl.centre;
+    for (int k = 0; k < 2; ++k) {
+      const int32_t ch = cl.child[k];
+      const size_t node = ch >= 0 ? size_t(ch) : size_t(h.chart_first[size_t(~ch)]);
+      h.child[c][size_t(k)] = int32_t(node);
+      h.parent[node] = int32_t(c);
+    }
+  }
+  for (size_t c = NC; c-- > 0;)
+    h.area[c] = h.area[size_t(h.child[c][0])] + h.area[size_t(h.child[c][1])];
   h.leaves = 0;
   for (size_t i = 0; i < n; ++i) h.leaves += h.is_leaf(i) ? 1 : 0;
 
@@ -87,13 +112,29 @@ Hierarchy build_hierarchy(const std::vector<Chart>& charts, const std::vector<Li
   h.gathered.assign(C * n, 0.0);
   h.emission.assign(C * n, 0.0);
   h.reflectance.assign(C * n, 0.0);
-  for (size_t i = 0; i < n; ++i) {
+  for (size_t i = h.clusters; i < n; ++i) {
     const uint32_t chart = h.key[i].chart;
     const Rgb b = previous ? previous->radiosity(h.key[i]) : chart_emission[chart];
     for (size_t c = 0; c < C; ++c) {
       h.emission[c * n + i] = chart_emission[chart][int(c)];
       h.reflectance[c * n + i] = chart_reflectance[chart][int(c)];
       h.B[c * n + i] = b[int(c)];
+    }
+  }
+  // A cluster's E is its children's area average (so what its links send, the pull of B, splits
+  // into emitted and reflected light as a surface's does; hierarchical_rows.h); its reflectance
+  // is unused (clusters are never leaves).
+  for (size_t k = h.clusters; k-- > 0;) {
+    const size_t a = size_t(h.child[k][0]), b = size_t(h.child[k][1]);
+    const double area = h.area[a] + h.area[b];
+    const Rgb carried = previous ? previous->radiosity(h.key[k]) : Rgb(0.0);
+    for (size_t c = 0; c < C; ++c) {
+      const double e =
+          area > 0.0
+              ? (h.area[a] * h.emission[c * n + a] + h.area[b] * h.emission[c * n + b]) / area
+              : 0.0;
+      h.emission[c * n + k] = e;
+      h.B[c * n + k] = previous ? carried[int(c)] : e;
     }
   }
 
@@ -168,6 +209,39 @@ double push_pull(const Hierarchy& h, size_t i, const double* down, std::vector<d
   return change;
 }
 
+// What every cluster passes down to its charts: its own gathered light and its ancestors'
+// (channel-major per cluster, 3 slots), parents first.
+std::vector<double> cluster_down(const Hierarchy& h) {
+  const size_t n = h.size();
+  std::vector<double> down(3 * h.clusters, 0.0);
+  for (size_t k = 0; k < h.clusters; ++k)
+    for (int c = 0; c < h.channels; ++c) {
+      const double above = h.parent[k] >= 0 ? down[3 * size_t(h.parent[k]) + size_t(c)] : 0.0;
+      down[3 * k + size_t(c)] = above + h.gathered[size_t(c) * n + k];
+    }
+  return down;
+}
+
+// Pull through the clusters, children first: B is the area average of the children's.
+void pull_clusters(const Hierarchy& h, std::vector<double>& out) {
+  const size_t n = h.size();
+  for (size_t k = h.clusters; k-- > 0;) {
+    const size_t a = size_t(h.child[k][0]), b = size_t(h.child[k][1]);
+    const double area = h.area[a] + h.area[b];
+    for (int c = 0; c < h.channels; ++c) {
+      const size_t o = size_t(c) * n;
+      out[o + k] = area > 0.0 ? (h.area[a] * out[o + a] + h.area[b] * out[o + b]) / area : 0.0;
+    }
+  }
+}
+
+// The light chart c's root receives from above: nothing without clusters.
+const double* chart_down(const Hierarchy& h, const std::vector<double>& down, size_t chart) {
+  static const double zero[3] = {0.0, 0.0, 0.0};
+  const int32_t parent = h.parent[h.chart_first[chart]];
+  return parent >= 0 ? down.data() + 3 * size_t(parent) : zero;
+}
+
 }  // namespace
 
 double jacobi_pass(Hierarchy& h) {
@@ -175,30 +249,41 @@ double jacobi_pass(Hierarchy& h) {
   std::vector<double> next(h.B.size());
   const size_t charts = h.chart_first.size() - 1;
   std::vector<double> change(charts, 0.0);
-  const double zero[3] = {0.0, 0.0, 0.0};
+  const std::vector<double> down = cluster_down(h);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, charts, 16),
                     [&](const tbb::blocked_range<size_t>& r) {
                       for (size_t c = r.begin(); c < r.end(); ++c)
-                        change[c] = push_pull(h, h.chart_first[c], zero, next);
+                        change[c] = push_pull(h, h.chart_first[c], chart_down(h, down, c), next);
                     });
+  pull_clusters(h, next);
   h.B.swap(next);
   return charts ? *std::max_element(change.begin(), change.end()) : 0.0;
 }
 
 double gauss_seidel_pass(Hierarchy& h) {
   const size_t charts = h.chart_first.size() - 1;
-  const double zero[3] = {0.0, 0.0, 0.0};
   double change = 0.0;
   std::vector<double> next = h.B;
+  // The clusters gather first, from the B of the previous pass (one block of the sweep).
+  if (h.clusters > 0) gather_range(h, 0, h.clusters);
+  const std::vector<double> down = cluster_down(h);
   for (size_t c = 0; c < charts; ++c) {
     gather_range(h, h.chart_first[c], h.chart_first[c + 1]);
-    change = std::max(change, push_pull(h, h.chart_first[c], zero, next));
+    change = std::max(change, push_pull(h, h.chart_first[c], chart_down(h, down, c), next));
     // Publish this chart's new values before the next chart gathers.
     for (int ch = 0; ch < h.channels; ++ch) {
       const size_t base = size_t(ch) * h.size();
       std::copy(next.begin() + long(base + h.chart_first[c]),
                 next.begin() + long(base + h.chart_first[c + 1]),
                 h.B.begin() + long(base + h.chart_first[c]));
+    }
+  }
+  if (h.clusters > 0) {
+    pull_clusters(h, next);
+    for (int ch = 0; ch < h.channels; ++ch) {
+      const size_t base = size_t(ch) * h.size();
+      std::copy(next.begin() + long(base), next.begin() + long(base + h.clusters),
+                h.B.begin() + long(base));
     }
   }
   return change;

@@ -3,6 +3,13 @@
 // stored per receiving node for gathering; the Gather and PushPull of Hanrahan, Salzman &
 // Aupperle 1991 (§5.1), and the projection onto the run's element mesh (hierarchical_tree.h).
 //
+// With clusters (hierarchical_clusters.h), nodes 0 .. clusters-1 are the clusters in preorder
+// (parents first) and the quadtree nodes follow: a chart's root has its cluster as parent, a
+// cluster its two children (clusters or chart roots). A cluster gathers like any node; what it
+// gathers is pushed down to all its charts (Sillion 1995's isotropic push: the same irradiance for
+// every member), and its B is the area average of its children's (pull), which is what its links
+// send.
+//
 // Nodes are numbered in depth-first key order (hierarchical_tree.h), charts contiguous, so the
 // same links give the same numbering, sums in the same order, and the same bits on any number of
 // threads: gathers run in parallel over receiving nodes, push/pull over charts, projection over
@@ -15,6 +22,7 @@
 #include <vector>
 
 #include "core/radiosity.h"
+#include "solvers/hierarchical/hierarchical_clusters.h"
 #include "solvers/hierarchical/hierarchical_refine.h"
 #include "solvers/hierarchical/hierarchical_tree.h"
 
@@ -44,6 +52,8 @@ struct Hierarchy {
   // rather than scaled with the reflected part (hierarchical_rows.h).
   std::vector<double> row_offset;
   size_t leaves = 0;
+  size_t clusters = 0;               // nodes [0, clusters) are clusters
+  std::vector<Vec3> cluster_centre;  // per cluster
 
   size_t size() const { return key.size(); }
   bool is_leaf(size_t i) const { return child[i][0] < 0; }
@@ -56,11 +66,13 @@ struct Hierarchy {
 };
 
 // Builds the tree holding every chart root and both ends of every link (with their ancestors
-// and siblings). Radiosities carry over from `previous` (deepest existing ancestor; E where
-// there is none). chart_emission/chart_reflectance: per chart, `channels` values used.
+// and siblings), and every cluster of `clusters` (nullptr or empty: none). Radiosities carry over
+// from `previous` (deepest existing ancestor; E where there is none; a cluster's E is its charts'
+// area average). chart_emission/chart_reflectance: per chart, `channels` values used.
 Hierarchy build_hierarchy(const std::vector<Chart>& charts, const std::vector<LinkRecord>& links,
                           const Hierarchy* previous, const std::vector<Rgb>& chart_emission,
-                          const std::vector<Rgb>& chart_reflectance, int channels);
+                          const std::vector<Rgb>& chart_reflectance, int channels,
+                          const ClusterTree* clusters = nullptr);
 
 // One Jacobi pass: every node gathers from the previous B, then push/pull sets the new B.
 // Returns the largest change of a leaf radiosity (any channel).

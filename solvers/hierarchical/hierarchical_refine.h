@@ -23,14 +23,31 @@
 // fraction of 16 rays (hierarchical_visibility.h); totally occluded pairs are neither linked nor
 // refined; a fully visible pair's descendants inherit V = 1 without rays.
 //
+// Clusters (hierarchical_clusters.h; `clustering=isotropic`): refinement starts from the root
+// cluster linked to itself. A cluster's link to itself is always opened (its members are at
+// distance 0 from one another) into its children's pairs, so the first pass refines the pair of
+// the two children of every cluster (n - 1 pairs for n charts, made in preorder by
+// cluster_frontier). A pair with a cluster end is estimated by the isotropic kernel's bound over
+// the two bounding spheres: from receiver R, a source S of projected area P (A/4 for a cluster,
+// A for a surface node, whose orientation is not used) at nearest approach d = max(0, |c_R - c_S|
+// - r_R - r_S) has F <= P / (pi d^2 + P) (the coaxial disk's value: 1 when the spheres meet).
+// Oracle as above (both estimates below feps, x4 when partly visible); otherwise the cluster is
+// opened, clusters before polygons (of two clusters, the larger sphere). Visibility: 16 segments
+// between points of the two ends (a cluster's by area over its charts, stratified, hits on the
+// segment's own two polygons ignored); a surface node facing away from a cluster's whole box is
+// dropped by the plane test. Transfer factors: the isotropic kernels (hierarchical_clusters.h),
+// a surface end by its 2 x 2 rule, the other way by reciprocity, times V.
+//
 // Work charged: 2 element-pair form factors per refinement test (the two estimates) and 2 per
 // link (its two transfer factors).
 #pragma once
 
 #include <cstdint>
 #include <functional>
+#include <utility>
 #include <vector>
 
+#include "solvers/hierarchical/hierarchical_clusters.h"
 #include "solvers/hierarchical/hierarchical_tree.h"
 #include "solvers/hierarchical/hierarchical_visibility.h"
 
@@ -79,12 +96,26 @@ struct RefineCriterion {
 
 class Refiner {
  public:
+  // `clusters`: the cluster tree when clustering (nullptr: none).
   Refiner(const std::vector<Chart>& charts, const NodeVisibility& visibility,
-          const RefineCriterion& criterion)
-      : charts_(charts), visibility_(visibility), c_(criterion) {}
+          const RefineCriterion& criterion, const ClusterTree* clusters = nullptr)
+      : charts_(charts), visibility_(visibility), c_(criterion), clusters_(clusters) {
+    if (clusters_)
+      for (const Chart& c : charts_) {
+        if (polygon_normal_.size() <= c.polygon) polygon_normal_.resize(c.polygon + 1, Vec3(0.0));
+        polygon_normal_[c.polygon] = c.normal;
+      }
+  }
 
   // Refine(root of chart a, root of chart b).
   void refine_roots(uint32_t a, uint32_t b, std::vector<LinkRecord>& out, RefineStats& stats) const;
+  // Refine(a, b) for any two nodes (clusters or quadtree nodes; a == b a cluster with itself).
+  void refine_keys(const NodeKey& a, const NodeKey& b, std::vector<LinkRecord>& out,
+                   RefineStats& stats) const;
+  // The pairs the root cluster's link to itself opens into: the two children of every cluster,
+  // in preorder (each self pair of a cluster opens into its children's self pairs and this pair;
+  // a chart's self pair carries nothing, a planar polygon not seeing itself).
+  static std::vector<std::pair<NodeKey, NodeKey>> cluster_frontier(const ClusterTree& tree);
   // Multigridding: keeps `link` if it passes the (new) criterion, else replaces it by the links
   // Refine makes below it.
   void rerefine(const LinkRecord& link, std::vector<LinkRecord>& out, RefineStats& stats) const;
@@ -105,9 +136,30 @@ class Refiner {
   double transfer(const Node& receiver, const Node& source) const;
   double max_over_children(const Node& receiver, const Node& source) const;
 
+  // Clusters.
+  Node node_of(const NodeKey& key) const;
+  void refine_any(const Node& p, const Node& q, Known known, std::vector<LinkRecord>& out,
+                  RefineStats& stats) const;
+  void refine_clustered(const Node& p, const Node& q, Known known, std::vector<LinkRecord>& out,
+                        RefineStats& stats) const;
+  // Which end a failing pair opens: true for q (clusters before polygons; the larger sphere).
+  bool open_q(const Node& p, const Node& q, double e_pq, double e_qp) const;
+  void open(const Node& p, const Node& q, bool open_q, Known known, std::vector<LinkRecord>& out,
+            RefineStats& stats) const;
+  Vec3 centre(const Node& n) const;
+  double radius(const Node& n) const;
+  double node_area(const Node& n) const;
+  double bound_estimate(const Node& receiver, const Node& source) const;
+  bool behind(const Node& surface, const Node& cluster) const;
+  // Unblocked segments of those (`facing`) of 16 that leave both ends' front sides.
+  int cluster_visibility(const Node& p, const Node& q, int& facing) const;
+  double surface_from_cluster(const Node& surface, const Node& cluster) const;
+
   const std::vector<Chart>& charts_;
   const NodeVisibility& visibility_;
   RefineCriterion c_;
+  const ClusterTree* clusters_ = nullptr;
+  std::vector<Vec3> polygon_normal_;  // per input polygon (clusters' segments)
 };
 
 }  // namespace radlab::hier

@@ -57,6 +57,9 @@ double rule_to_polygon(const Chart& from_chart, const NodeGeometry& from, const 
 LeafRow leaf_row(const Hierarchy& h, const std::vector<Chart>& charts,
                  const std::vector<NodeGeometry>& geom, size_t i, std::vector<Vec3>& scratch) {
   LeafRow r;
+  // A leaf of no area (a fan triangle of collinear corners) has no rule; it is never linked, but
+  // with clusters its path holds their links (it keeps row_scale 1).
+  if (!(geom[i].area > 0.0)) return r;
   const Chart& chart = charts[h.key[i].chart];
   // The 2 x 2 rule over the leaf: its children's centres, weighted by their areas.
   double px[4], py[4], pz[4], w[4];
@@ -76,7 +79,16 @@ LeafRow leaf_row(const Hierarchy& h, const std::vector<Chart>& charts,
       const size_t s = h.source[k];
       const double v = double(h.free_rays[k]) / kVisibilityRays;
       double leaf_side = h.factor[k];  // the leaf's own links: their factor is this rule already
-      if (size_t(a) != i) {
+      if (size_t(a) != i && s < h.clusters) {
+        // A cluster source: its isotropic kernel at the leaf's four points
+        // (hierarchical_clusters.h).
+        double sum = 0.0;
+        for (int d = 0; d < 4; ++d)
+          sum += w[d] * isotropic_point_factor({px[d], py[d], pz[d]}, chart.normal,
+                                               h.cluster_centre[s], h.area[s]);
+        leaf_side = v * sum;
+        ++r.evaluations;
+      } else if (size_t(a) != i) {
         const NodeGeometry& g = geom[s];
         point_to_polygon_form_factors(points, chart.normal,
                                       std::span<const Vec3>(g.x, size_t(g.corners)),
@@ -101,7 +113,7 @@ LeafRow leaf_row(const Hierarchy& h, const std::vector<Chart>& charts,
         emits = emits || e > 0.0;
       }
       if (!emits) continue;
-      if (geom[s].area < geom[i].area) {
+      if (s >= h.clusters && geom[s].area < geom[i].area) {
         // A point-like source (smaller than the leaf): its light is received by the source-side
         // rule, exact over the leaf's polygon, so the leaves it reaches receive its power
         // whatever their size (the lamp's points see a partition of the room: sum 1).

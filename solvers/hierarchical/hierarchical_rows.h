@@ -35,6 +35,11 @@
 // columns c_j (the power leaf j's light delivers, per unit) do not; RowStats reports their range
 // and mean deviation (docs/solvers.md, "Emitted light").
 //
+// Clusters: a leaf's path runs on through its chart's clusters; a link from a cluster source is
+// evaluated at the leaf's four points by the isotropic kernel (hierarchical_clusters.h), and its
+// emitted light is received by that value, not as point-like. T_L is then that rule's row sum of
+// the clustered operator, no longer exactly 1 in a closed box where cluster links remain.
+//
 // Cost: one 2 x 2 evaluation (4 point-to-polygon values, batched) per leaf and link on its
 // path above it, and one more per (leaf, emitting link) whose source is smaller than the leaf; no
 // rays (V is the link's). Left out: the leaf's own visibility (a link's V is

@@ -48,10 +48,16 @@ std::vector<Chart> make_charts(const Scene& scene);
 // Depth up to kMaxDepth; digit of level l (1-based) in bits 2(l-1)..2l-1 of path.
 inline constexpr int kMaxDepth = 24;
 
+// A cluster (hierarchical_clusters.h) is named by its index in `chart` and this depth.
+inline constexpr uint32_t kClusterDepth = 0xFFFFFFFFu;
+
 struct NodeKey {
   uint32_t chart = 0;
   uint32_t depth = 0;
   uint64_t path = 0;
+
+  static NodeKey cluster(uint32_t index) { return {index, kClusterDepth, 0}; }
+  bool is_cluster() const { return depth == kClusterDepth; }
 
   NodeKey child(int digit) const {
     return {chart, depth + 1, path | (uint64_t(digit) << (2 * depth))};

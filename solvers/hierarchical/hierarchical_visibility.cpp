@@ -54,7 +54,9 @@ struct TriCells {
 };
 const TriCells kTriCells;
 
-Vec3 cell_point(const NodeGeometry& g, int cell, double u1, double u2) {
+}  // namespace
+
+Vec3 stratum_point(const NodeGeometry& g, int cell, double u1, double u2) {
   if (g.corners == 4) return g.point((cell % 4 + u1) * 0.25, (cell / 4 + u2) * 0.25);
   if (u1 + u2 > 1.0) {
     u1 = 1.0 - u1;
@@ -66,7 +68,9 @@ Vec3 cell_point(const NodeGeometry& g, int cell, double u1, double u2) {
   return g.point(s, t);
 }
 
-}  // namespace
+int magic_partner(int cell) {
+  return kMagic[cell];
+}
 
 NodeVisibility::NodeVisibility(const Scene& scene) : mesh_(build_mesh(scene, {1, 0.0})) {
   embree_ = std::make_unique<EmbreeScene>(mesh_);
@@ -83,8 +87,8 @@ int NodeVisibility::unblocked(const NodeGeometry& p, uint32_t p_polygon, const N
   for (int k = 0; k < kVisibilityRays; ++k) {
     const double a1 = rng.next_double(), a2 = rng.next_double();
     const double b1 = rng.next_double(), b2 = rng.next_double();
-    const Vec3 x = cell_point(p, k, a1, a2);
-    const Vec3 y = cell_point(q, kMagic[k], b1, b2);
+    const Vec3 x = stratum_point(p, k, a1, a2);
+    const Vec3 y = stratum_point(q, kMagic[k], b1, b2);
     const Vec3 d = y - x;
     packet.ox[k] = float(x.x);
     packet.oy[k] = float(x.y);
@@ -99,6 +103,29 @@ int NodeVisibility::unblocked(const NodeGeometry& p, uint32_t p_polygon, const N
   embree_->occluded16(packet, blocked, p_polygon, q_polygon);
   int free = 0;
   for (int k = 0; k < kVisibilityRays; ++k) free += blocked[k] ? 0 : 1;
+  return free;
+}
+
+int NodeVisibility::unblocked_segments(const Vec3* x, const Vec3* y, const uint32_t* x_polygon,
+                                       const uint32_t* y_polygon, int count) const {
+  if (count <= 0) return 0;
+  SegmentPacket packet;
+  packet.count = count;
+  for (int k = 0; k < count; ++k) {
+    const Vec3 d = y[k] - x[k];
+    packet.ox[k] = float(x[k].x);
+    packet.oy[k] = float(x[k].y);
+    packet.oz[k] = float(x[k].z);
+    packet.dx[k] = float(d.x);
+    packet.dy[k] = float(d.y);
+    packet.dz[k] = float(d.z);
+    packet.t_near[k] = 1e-5f;
+    packet.t_far[k] = 1.0f - 1e-5f;
+  }
+  bool blocked[16];
+  embree_->occluded16_each(packet, blocked, x_polygon, y_polygon);
+  int free = 0;
+  for (int k = 0; k < count; ++k) free += blocked[k] ? 0 : 1;
   return free;
 }
 

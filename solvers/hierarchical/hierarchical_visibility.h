@@ -30,6 +30,11 @@ PlaneRelation plane_test(const NodeGeometry& p, const Vec3& p_normal, const Node
 
 inline constexpr int kVisibilityRays = 16;
 
+// The point of stratum `cell` (of 16) of a node at jitter (u1, u2), and the stratum of the other
+// node it is joined to (Dürer's magic square), as unblocked() uses them.
+Vec3 stratum_point(const NodeGeometry& g, int cell, double u1, double u2);
+int magic_partner(int cell);
+
 class NodeVisibility {
  public:
   // Builds an Embree scene of the input polygons (one element per polygon).
@@ -40,6 +45,12 @@ class NodeVisibility {
   int unblocked(const NodeGeometry& p, uint32_t p_polygon, const NodeKey& p_key,
                 const NodeGeometry& q, uint32_t q_polygon, const NodeKey& q_key,
                 uint64_t seed) const;
+
+  // Number of the `count` (<= 16) segments x[k] -> y[k] that nothing blocks, ignoring hits on
+  // polygons x_polygon[k] and y_polygon[k] (the segment's own ends); for clusters
+  // (hierarchical_refine.h).
+  int unblocked_segments(const Vec3* x, const Vec3* y, const uint32_t* x_polygon,
+                         const uint32_t* y_polygon, int count) const;
 
  private:
   Mesh mesh_;
