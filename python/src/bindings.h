@@ -4,7 +4,40 @@
 
 #include <pybind11/pybind11.h>
 
+#include <utility>
+
+#include "core/error.h"
+
 namespace radlab::python {
+
+// A Python exception raised inside a Python solver's call (or a pybind11 TypeError / ValueError
+// raised while its result is read), carried through radlab's runner as a radlab::Error: the
+// runner lets radlab errors through unchanged (experiments/run/runner.h, call_solver) instead of
+// turning them into a NumericalError, a sweep records it as that run's failure with its message,
+// and when the run returns to Python the original exception is raised again, type and traceback
+// intact (errors.cpp). Exit code 4 (the solver failed), as for any solver's exception.
+class PythonError : public Error {
+ public:
+  explicit PythonError(pybind11::error_already_set error)
+      : Error(ExitCode::kNumerical, error.what()), error_(std::move(error)) {}
+  pybind11::error_already_set& error() { return error_; }
+
+ private:
+  pybind11::error_already_set error_;
+};
+
+// Calls `f` (into Python, with the GIL held) so that what Python raises leaves as a PythonError.
+template <class F>
+auto keep_python_errors(F&& f) -> decltype(f()) {
+  try {
+    return f();
+  } catch (pybind11::error_already_set& e) {
+    throw PythonError(std::move(e));
+  } catch (const pybind11::builtin_exception& e) {
+    e.set_error();  // the Python exception it stands for, then fetched
+    throw PythonError(pybind11::error_already_set());
+  }
+}
 
 void bind_errors(pybind11::module_& m);
 void bind_scene(pybind11::module_& m);

@@ -92,38 +92,45 @@ class PythonSolver final : public Solver {
     view->system = &system;
     view_ = view.get();
     view_object_ = py::cast(std::move(view));
-    instance_.attr("init")(view_object_);
+    keep_python_errors([&] { instance_.attr("init")(view_object_); });
   }
 
   StepInfo step() override {
     py::gil_scoped_acquire gil;
-    py::object finished = instance_.attr("step")();
+    py::object finished = keep_python_errors([&] { return instance_.attr("step")(); });
     StepInfo info;
-    info.finished = !finished.is_none() && finished.cast<bool>();
+    info.finished =
+        keep_python_errors([&] { return !finished.is_none() && finished.cast<bool>(); });
     return info;
   }
 
   const Radiosity& solution() const override {
     py::gil_scoped_acquire gil;
-    solution_ = radiosity_from(instance_.attr("solution")(), n_, channels_, name_ + ".solution()");
+    solution_ = keep_python_errors([&] {
+      return radiosity_from(instance_.attr("solution")(), n_, channels_, name_ + ".solution()");
+    });
     return solution_;
   }
 
   const Radiosity* unshot() const override {
     if (kind_ != SolverKind::kShooting) return nullptr;
     py::gil_scoped_acquire gil;
-    unshot_ = radiosity_from(instance_.attr("unshot")(), n_, channels_, name_ + ".unshot()");
+    unshot_ = keep_python_errors([&] {
+      return radiosity_from(instance_.attr("unshot")(), n_, channels_, name_ + ".unshot()");
+    });
     return &unshot_;
   }
 
   std::vector<std::pair<std::string, double>> statistics() const override {
     py::gil_scoped_acquire gil;
-    std::vector<std::pair<std::string, double>> out;
-    py::object stats = instance_.attr("statistics")();
-    if (stats.is_none()) return out;
-    for (auto item : py::reinterpret_borrow<py::dict>(stats))
-      out.emplace_back(py::str(item.first).cast<std::string>(), item.second.cast<double>());
-    return out;
+    return keep_python_errors([&] {
+      std::vector<std::pair<std::string, double>> out;
+      py::object stats = instance_.attr("statistics")();
+      if (stats.is_none()) return out;
+      for (auto item : py::reinterpret_borrow<py::dict>(stats))
+        out.emplace_back(py::str(item.first).cast<std::string>(), item.second.cast<double>());
+      return out;
+    });
   }
 
  private:
