@@ -2,6 +2,7 @@
 
 #include <cstdio>
 
+#include "core/interrupt.h"
 #include "core/log.h"
 
 namespace radlab {
@@ -37,6 +38,7 @@ Progress::~Progress() {
 }
 
 void Progress::update(double done) {
+  throw_if_interrupted();  // long work reports here: where a Ctrl-C from Python stops it
   if (log::quiet()) return;
   const auto now = std::chrono::steady_clock::now();
   // A terminal is redrawn a few times a second; a log (a Slurm job, CI, a redirected run of

@@ -16,7 +16,8 @@ class Progress {
   Progress(const Progress&) = delete;
   Progress& operator=(const Progress&) = delete;
 
-  // Reports `done` units so far (redraws at most a few times per second).
+  // Reports `done` units so far (redraws at most a few times per second). Throws Interrupted
+  // when an interrupt was requested (core/interrupt.h: Ctrl-C in the Python module).
   void update(double done);
   // Final line with the total time.
   void finish(const std::string& note = "");

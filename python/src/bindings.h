@@ -4,9 +4,11 @@
 
 #include <pybind11/pybind11.h>
 
+#include <csignal>
 #include <utility>
 
 #include "core/error.h"
+#include "core/interrupt.h"
 
 namespace radlab::python {
 
@@ -24,6 +26,33 @@ class PythonError : public Error {
 
  private:
   pybind11::error_already_set error_;
+};
+
+// Long C++ work called from Python: the GIL released, and Ctrl-C (SIGINT) turned into an
+// interrupt request that the work checks where it reports progress (core/interrupt.h), which
+// unwinds it as radlab::Interrupted and reaches Python as KeyboardInterrupt (errors.cpp).
+// Python's own handler is restored afterwards; a SIGINT the work did not get to is raised again
+// for it, so none is lost.
+class LongWork {
+ public:
+  LongWork() {
+    clear_interrupt();
+    previous_ = std::signal(SIGINT, &on_sigint);
+  }
+  ~LongWork() {
+    std::signal(SIGINT, previous_ == SIG_ERR ? SIG_DFL : previous_);
+    if (interrupt_requested()) {
+      clear_interrupt();
+      std::raise(SIGINT);  // to Python's handler: KeyboardInterrupt at its next check
+    }
+  }
+  LongWork(const LongWork&) = delete;
+  LongWork& operator=(const LongWork&) = delete;
+
+ private:
+  static void on_sigint(int) { request_interrupt(); }
+  void (*previous_)(int) = SIG_DFL;
+  pybind11::gil_scoped_release release_;  // after the handler is installed, before it is restored
 };
 
 // Calls `f` (into Python, with the GIL held) so that what Python raises leaves as a PythonError.

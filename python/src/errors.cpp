@@ -65,6 +65,8 @@ void bind_errors(py::module_& m) {
   py::register_exception_translator([](std::exception_ptr thrown) {
     try {
       if (thrown) std::rethrow_exception(thrown);
+    } catch (const Interrupted&) {
+      PyErr_SetNone(PyExc_KeyboardInterrupt);  // Ctrl-C during long work (bindings.h LongWork)
     } catch (PythonError& e) {
       e.error().restore();  // a Python solver's own exception, raised again as it was
     } catch (const Error& e) {

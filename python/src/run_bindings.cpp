@@ -148,7 +148,7 @@ py::dict solve(SceneHandle& scene, const SolveArguments& arguments, py::object c
   request.hook = python_hook(problem, std::move(callback), hook_seconds);
   std::optional<RunOutcome> run;
   {
-    py::gil_scoped_release release;
+    LongWork work;  // GIL released, Ctrl-C checked
     problem = &scene.run_problem(request.reference, request.budget);
     const auto start = std::chrono::steady_clock::now();
     run = execute_run(request, *problem);
@@ -207,7 +207,7 @@ void bind_run(py::module_& m) {
         options.overwrite = overwrite;
         SweepReport report;
         {
-          py::gil_scoped_release release;
+          LongWork work;  // GIL released, Ctrl-C checked
           report = run_sweep(spec, options);
           write_report_page(options.out_dir);
         }

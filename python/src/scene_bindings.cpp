@@ -60,7 +60,7 @@ py::dict csr_of(const FormFactorMatrix& matrix) {
   std::vector<int> indices;
   std::vector<double> data;
   {
-    py::gil_scoped_release release;
+    LongWork work;  // GIL released, Ctrl-C checked
     for (size_t i = 0; i < n; ++i) {
       matrix.visit_row(i, [&](const auto* row) {
         for (size_t j = 0; j < n; ++j)
@@ -129,7 +129,7 @@ py::dict reference_of(const Reference& ref) {
 
 // The problem with the certified reference (what `radlab reference` computes), prepared once.
 const Problem& certified_problem(SceneHandle& scene) {
-  py::gil_scoped_release release;
+  LongWork work;  // GIL released, Ctrl-C checked
   return scene.run_problem(ReferenceChoice{}, Budget{});
 }
 
@@ -151,7 +151,7 @@ void bind_scene(py::module_& m) {
                                    FormFactorOptions{ff_method, ff_set, precision, ff_mode});
              spec.use_cache = cache;
              spec.cache_dir = cache_dir;
-             py::gil_scoped_release release;
+             LongWork work;  // GIL released, Ctrl-C checked
              return std::make_unique<SceneHandle>(spec);
            }),
            py::arg("scene"), py::arg("subdiv"), py::arg("element_size"), py::arg("patches"),
@@ -197,7 +197,7 @@ void bind_scene(py::module_& m) {
             spec.require_emitter = false;
             std::unique_ptr<Problem> problem;
             {
-              py::gil_scoped_release release;
+              LongWork work;  // GIL released, Ctrl-C checked
               problem = prepare_problem(spec);
             }
             const FormFactorMatrix& matrix = problem->certified_matrix();

@@ -153,3 +153,23 @@ def test_bad_arrays_in_a_scene_dict():
         radlab.load_dict(box(polygons=[[0, 1, 3, 2], [4, 6, 7, 8]]))
     with pytest.raises(ValueError, match="keys must be exactly"):
         radlab.load_dict({"vertices": BOX_VERTICES})
+
+
+def test_ctrl_c_mid_matrix_build_raises_and_caches_nothing(tmp_path):
+    # SIGINT while the form-factor matrix is being built in C++ without the GIL (Cornell at
+    # subdivision 16: 5,120 rows, tens of seconds here): the build checks the request where it
+    # reports progress (core/interrupt.h) and unwinds; KeyboardInterrupt reaches Python, and the
+    # cache holds no matrix, whole or partial (it is written atomically after the build). A build
+    # that ignored the signal would store its matrix: the empty cache shows it was interrupted,
+    # with no timing in the assertion.
+    cache = tmp_path / "cache"
+    scene = radlab.load("builtin:cornell", subdiv=16, cache_dir=cache)
+    timer = threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT))
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            radlab.form_factors(scene)
+    finally:
+        timer.cancel()
+    stored = [p.name for p in cache.iterdir()] if cache.exists() else []
+    assert not [name for name in stored if not name.endswith(".lock")], stored
