@@ -35,9 +35,10 @@ Vec3 ClusterTree::sample(const std::vector<Chart>& charts, uint32_t c, int k, in
   return chart.map({u1, u2});
 }
 
-ClusterTree build_clusters(const std::vector<Chart>& charts) {
-  ClusterTree t;
-  t.chart_parent.assign(charts.size(), -1);
+namespace {
+
+// Each chart's axis-aligned box, the BVH builder's input.
+std::vector<BvhBox> chart_boxes(const std::vector<Chart>& charts) {
   std::vector<BvhBox> boxes(charts.size());
   for (size_t c = 0; c < charts.size(); ++c) {
     BvhBox& b = boxes[c];
@@ -47,15 +48,14 @@ ClusterTree build_clusters(const std::vector<Chart>& charts) {
       b.hi = glm::max(b.hi, charts[c].x[k]);
     }
   }
-  const BinaryBvh bvh = build_binary_bvh(boxes);
-  const size_t n = bvh.nodes.size();
-  t.clusters.resize(n);
-  for (size_t i = 0; i < n; ++i) {
-    t.clusters[i].parent = bvh.nodes[i].parent;
-    for (int k = 0; k < 2; ++k) t.clusters[i].child[k] = bvh.nodes[i].child[k];
-  }
-  // Leaf order and ranges: a preorder walk visits the charts left to right.
-  t.order.reserve(charts.size());
+  return boxes;
+}
+
+// Leaf order and ranges: a preorder walk visits the charts left to right, so each cluster holds
+// the charts order[first, first + count), and chart_parent names each chart's cluster.
+void order_charts(ClusterTree& t, size_t charts) {
+  const size_t n = t.clusters.size();
+  t.order.reserve(charts);
   // Ranges need the subtree sizes: children after parents in preorder, so sum in reverse.
   std::vector<uint32_t> count(n, 0);
   for (size_t i = n; i-- > 0;)
@@ -78,7 +78,7 @@ ClusterTree build_clusters(const std::vector<Chart>& charts) {
       }
     }
   }
-  t.order.assign(charts.size(), 0);
+  t.order.assign(charts, 0);
   for (size_t i = 0; i < n; ++i) {
     t.clusters[i].first = first[i];
     t.clusters[i].count = count[i];
@@ -93,11 +93,12 @@ ClusterTree build_clusters(const std::vector<Chart>& charts) {
       }
     }
   }
-  t.cumulative_area.assign(charts.size() + 1, 0.0);
-  for (size_t k = 0; k < t.order.size(); ++k)
-    t.cumulative_area[k + 1] = t.cumulative_area[k] + charts[t.order[k]].area;
-  // Area, centroid and box, children before parents.
-  for (size_t i = n; i-- > 0;) {
+}
+
+// Area, centroid, box and bounding-sphere radius of every cluster, children before parents.
+void measure_clusters(ClusterTree& t, const std::vector<Chart>& charts,
+                      const std::vector<BvhBox>& boxes) {
+  for (size_t i = t.clusters.size(); i-- > 0;) {
     Cluster& cl = t.clusters[i];
     double area = 0.0;
     Vec3 moment(0.0), lo(1e300), hi(-1e300);
@@ -130,6 +131,25 @@ ClusterTree build_clusters(const std::vector<Chart>& charts) {
     }
     cl.radius = std::sqrt(r2);
   }
+}
+
+}  // namespace
+
+ClusterTree build_clusters(const std::vector<Chart>& charts) {
+  ClusterTree t;
+  t.chart_parent.assign(charts.size(), -1);
+  const std::vector<BvhBox> boxes = chart_boxes(charts);
+  const BinaryBvh bvh = build_binary_bvh(boxes);
+  t.clusters.resize(bvh.nodes.size());
+  for (size_t i = 0; i < bvh.nodes.size(); ++i) {
+    t.clusters[i].parent = bvh.nodes[i].parent;
+    for (int k = 0; k < 2; ++k) t.clusters[i].child[k] = bvh.nodes[i].child[k];
+  }
+  order_charts(t, charts.size());
+  t.cumulative_area.assign(charts.size() + 1, 0.0);
+  for (size_t k = 0; k < t.order.size(); ++k)
+    t.cumulative_area[k + 1] = t.cumulative_area[k] + charts[t.order[k]].area;
+  measure_clusters(t, charts, boxes);
   return t;
 }
 
