@@ -9,6 +9,11 @@ set(python_test_environment
     "${RADLAB_TEST_ENVIRONMENT}"
     # No __pycache__ or .pytest_cache in the source tree.
     "PYTHONDONTWRITEBYTECODE=1")
+# A plugin for radlab.load_plugin (python/tests/test_plugins.py), where the test plugins are built.
+if(TARGET radlab_test_plugin_contract_breaker)
+  list(APPEND python_test_environment
+       "CONTRACT_BREAKER_PLUGIN=$<TARGET_FILE:radlab_test_plugin_contract_breaker>")
+endif()
 
 file(GLOB python_test_files CONFIGURE_DEPENDS ${PROJECT_SOURCE_DIR}/python/tests/test_*.py)
 foreach(file ${python_test_files})

@@ -12,17 +12,29 @@ run request as `radlab solve` and gives the same numbers bit for bit. Solvers wr
 subclass radlab.Solver.
 """
 
+import os as _os
+import sys as _sys
+
+# The extension is loaded with RTLD_GLOBAL so that solver plugins (load_plugin) resolve radlab's
+# symbols against it, as they do against the radlab executable.
+_flags = _sys.getdlopenflags()
+_sys.setdlopenflags(_flags | _os.RTLD_GLOBAL)
+try:
+    from . import _radlab
+finally:
+    _sys.setdlopenflags(_flags)
+
 from ._radlab import (Error, InputError, NumericalError, ToleranceNotReached, UsageError,
                       __version__)
 from .scene import Scene, load, load_dict
 from .matrices import Reference, errors, form_factors, reference
 from .run import (Experiment, Result, run_experiment, solve, solvers, time_columns,
                   trace_columns)
-from .solver import Solver, register_solver
+from .solver import Solver, load_plugin, register_solver
 
 __all__ = [
     "Error", "InputError", "NumericalError", "ToleranceNotReached", "UsageError", "__version__",
     "Scene", "load", "load_dict", "Reference", "errors", "form_factors", "reference", "Result", "solve",
     "Experiment", "run_experiment",
-    "solvers", "trace_columns", "time_columns", "Solver", "register_solver",
+    "solvers", "trace_columns", "time_columns", "Solver", "register_solver", "load_plugin",
 ]

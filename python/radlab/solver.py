@@ -100,3 +100,12 @@ def register_solver(cls):
         del _classes[name], _signatures[name]
         raise
     return name
+
+
+def load_plugin(path):
+    """Loads a solver plugin (a shared library built against the installed package, as for
+    `radlab --plugin PATH`; docs/library.md) into this process: its solvers and form-factor
+    methods are then named like the built-in ones, in solve and in experiments, and their runs
+    record the plugin's path and SHA-256. Returns the names of the solvers it registered."""
+    from . import _checks
+    return list(_radlab.load_plugin(_checks.path("path", path)))

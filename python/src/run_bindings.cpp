@@ -18,6 +18,7 @@
 #include "python/src/arrays.h"
 #include "python/src/bindings.h"
 #include "python/src/scene_handle.h"
+#include "solvers/plugin_loader.h"
 #include "solvers/registry.h"
 
 namespace py = pybind11;
@@ -227,6 +228,16 @@ void bind_run(py::module_& m) {
 
   // The trace's columns from its table (experiments/run/columns.h): name, meaning, and whether the
   // value measures the machine (time columns, left out when runs are compared).
+  // A plugin's solvers and form-factor methods, registered in this process (solvers/plugin.h).
+  // The plugin resolves radlab's symbols against this module, which the package imports with
+  // RTLD_GLOBAL for that reason (python/radlab/__init__.py).
+  m.def(
+      "load_plugin",
+      [](const std::string& path) {
+        load_plugin(path);
+        return loaded_plugin_provenance().back().solvers;
+      },
+      py::arg("path"));
   m.def("trace_columns", []() {
     std::vector<std::tuple<std::string, std::string, bool>> columns;
     for (const auto& c : trace_table()) columns.emplace_back(c.name, c.meaning, c.time);
