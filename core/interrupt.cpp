@@ -24,7 +24,11 @@ bool interrupt_requested() noexcept {
 }
 
 void throw_if_interrupted() {
-  if (g_requested.exchange(false, std::memory_order_relaxed)) throw Interrupted();
+  // A load first: called at every step of a run and from every thread of a matrix build, where
+  // an exchange would write the shared flag's cache line each time.
+  if (g_requested.load(std::memory_order_relaxed) &&
+      g_requested.exchange(false, std::memory_order_relaxed))
+    throw Interrupted();
 }
 
 }  // namespace radlab

@@ -586,8 +586,7 @@ void HemicubeFormFactors::record_emitter_sampling(size_t i, const Buffers& buffe
   for (size_t k = 0; k < emitters_.size(); ++k) {
     const size_t j = emitters_[k];
     if (j != i) {
-      corners.clear();
-      for (uint32_t v : mesh_.element_vertices(j)) corners.push_back(mesh_.vertices[v]);
+      mesh_.corners(j, corners);
       const double point = point_to_polygon_form_factor(mesh_.centroid[i], mesh_.normal[i], corners,
                                                         mesh_.normal[j], scratch);
       const double L = emitter_luminance_[j];
