@@ -64,22 +64,38 @@ RunOutcome run_prepared(const RunRequest& request, const Problem& problem,
   TraceWriter* trace = owned_trace ? owned_trace.get() : outputs.trace_sink;
   outcome.result = run_solver(*outcome.solver, problem, request.budget, request.schedule,
                               request.labels, trace, request.hook);
+  // The outputs read the solver once more after the run: through the same guard and contract
+  // check as the run's own reads (runner.h), so a plugin that throws or changes its answer's
+  // size here fails this run by name instead of ending a sweep or reading out of bounds.
+  const Solver& made = *outcome.solver;
+  const RunLabels& labels = request.labels;
   // On two levels, adaptive-shooting's final system, certified on the evaluation mesh.
-  for (auto& entry : final_system_statistics(problem, *outcome.solver))
+  for (auto& entry : call_solver(labels, "its final system",
+                                 [&] { return final_system_statistics(problem, made); }))
     outcome.result.statistics.push_back(entry);
+  const auto checked = [&](const char* call, const Radiosity& field) -> const Radiosity& {
+    check_solver_field(field, *problem.system, labels, call);
+    return field;
+  };
+  const Radiosity& solution = checked(
+      "solution()",
+      call_solver(labels, "solution()", [&]() -> const Radiosity& { return made.solution(); }));
 
   if (!outputs.radiosity.empty()) {
-    write_radiosity_csv(outputs.radiosity, problem.mesh, outcome.solver->solution());
+    write_radiosity_csv(outputs.radiosity, problem.mesh, solution);
     if (outputs.announce) log::info("wrote " + outputs.radiosity);
   }
   if (trace) trace->close();
   if (owned_trace && outputs.announce) log::info("wrote " + outputs.trace);
   if (!outputs.image.empty())
-    save_final_image(problem,
-                     outputs.display_image ? outcome.solver->display() : outcome.solver->solution(),
-                     outputs,
-                     run_provenance(request.labels.run_id, problem.spec.scene, request.solver,
-                                    outcome.result.steps, outcome.result.rows));
+    save_final_image(
+        problem,
+        outputs.display_image
+            ? checked("display()", call_solver(labels, "display()", [&] { return made.display(); }))
+            : solution,
+        outputs,
+        run_provenance(request.labels.run_id, problem.spec.scene, request.solver,
+                       outcome.result.steps, outcome.result.rows));
   if (!outputs.json.empty()) {
     JsonWriter json;
     begin_run_json(json, request, &problem, &request.solver_parameters.values());

@@ -25,7 +25,10 @@ namespace {
 namespace fs = std::filesystem;
 using testing::TempDir;
 
-enum class Fault { kWrongSize, kWrongChannels, kThrows, kThrowsInInit };
+enum class Fault { kWrongSize, kWrongChannels, kThrows, kThrowsInInit, kThrowsWhenWritten };
+
+// The sweep's step budget (sweep_with): the kThrowsWhenWritten solver counts on it.
+constexpr int kBudgetSteps = 20;
 
 // Gauss–Seidel with one deliberate breach of the contract.
 class BrokenSolver final : public Solver {
@@ -38,18 +41,26 @@ class BrokenSolver final : public Solver {
     if (fault_ == Fault::kWrongChannels) wrong_ = Radiosity(B_.channels() == 1 ? 3 : 1, B_.size());
   }
   StepInfo step() override {
-    if (fault_ == Fault::kThrows && ++steps_ == 3)
+    ++steps_;
+    if (fault_ == Fault::kThrows && steps_ == 3)
       throw std::runtime_error("deliberate failure at step 3");
     return {};
   }
   const Radiosity& solution() const override {
+    // After the last step the runner reads the solution once for its final checkpoint; the
+    // next read is the run's radiosity file, after the run proper.
+    if (fault_ == Fault::kThrowsWhenWritten && steps_ == kBudgetSteps && ++reads_after_last_ > 1)
+      throw std::runtime_error("deliberate failure when the result is written");
     return fault_ == Fault::kWrongSize || fault_ == Fault::kWrongChannels ? wrong_ : B_;
   }
+  // Not through solution(), so that each checkpoint reads solution() exactly once.
+  Radiosity display() const override { return B_; }
 
  private:
   Fault fault_;
   Radiosity B_, wrong_;
   int steps_ = 0;
+  mutable int reads_after_last_ = 0;
 };
 
 // Registers the broken solvers once per test program.
@@ -70,6 +81,7 @@ void register_broken_solvers() {
     add("test-wrong-channels", Fault::kWrongChannels);
     add("test-throws", Fault::kThrows);
     add("test-throws-in-init", Fault::kThrowsInInit);
+    add("test-throws-when-written", Fault::kThrowsWhenWritten);
     return true;
   }();
   (void)done;
@@ -86,7 +98,8 @@ SweepReport sweep_with(const TempDir& dir, const std::string& name) {
                                          name +
                                          "\", \"gauss-seidel\"]\n"
                                          "[form_factors]\nrays = 4\n"
-                                         "[budget]\nsteps = 20\n");
+                                         "[budget]\nsteps = " +
+                                         std::to_string(kBudgetSteps) + "\n");
   return run_sweep(read_experiment(toml), {dir.file("out"), 0, 1, "test"});
 }
 
@@ -130,6 +143,13 @@ TEST(SolverContract, AnExceptionFromInitFailsItsRunAndTheSweepGoesOn) {
   TempDir dir;
   expect_contained(dir, sweep_with(dir, "test-throws-in-init"), "test-throws-in-init",
                    {"threw from init(): init refused on purpose"});
+}
+
+// The outputs written after the run (the radiosity file) read the solver through the same guard.
+TEST(SolverContract, AnExceptionWhileTheResultIsWrittenFailsItsRun) {
+  TempDir dir;
+  expect_contained(dir, sweep_with(dir, "test-throws-when-written"), "test-throws-when-written",
+                   {"threw from solution(): deliberate failure when the result is written"});
 }
 
 #ifdef CONTRACT_BREAKER_PLUGIN
