@@ -50,6 +50,8 @@
 #include <string>
 
 #include "core/error.h"
+#include "core/log.h"
+#include "core/text.h"
 #include "solvers/hierarchical/hierarchical_hierarchy.h"
 #include "solvers/hierarchical/hierarchical_rows.h"
 #include "solvers/solver_factories.h"
@@ -78,7 +80,7 @@ struct HierarchicalOptions {
     o.levels = bag.get_int("levels", o.levels);
     o.gathers = bag.get_int("gathers", o.gathers);
     o.order = bag.get_choice("order", o.order, {"jacobi", "gauss-seidel"});
-    o.rows = bag.get_choice("rows", o.rows, {"leaf", "links"});
+    o.rows = bag.get_choice("rows", o.rows, {"leaf", "balanced", "links"});
     o.seed = bag.get_int("seed", o.seed);
     o.clustering = bag.get_choice("clustering", o.clustering, {"none", "isotropic"});
     o.validate();
@@ -258,7 +260,7 @@ class HierarchicalSolver final : public Solver {
       add(pre + "rays", double(p.stats.rays));
       add(pre + "memory_bytes", double(p.memory));
       add(pre + "peak_rss_bytes", p.peak_rss);
-      if (o_.rows == "leaf") {
+      if (o_.rows != "links") {
         add(pre + "row_link_sum_max", p.rows.max_link_sum);
         add(pre + "row_link_sum_min", p.rows.min_link_sum);
         add(pre + "row_leaves_above_one", double(p.rows.leaves_above_one));
@@ -269,6 +271,10 @@ class HierarchicalSolver final : public Solver {
         add(pre + "column_sum_min", p.rows.min_column);
         add(pre + "column_sum_max", p.rows.max_column);
         add(pre + "column_sum_mean_deviation", p.rows.mean_column_deviation);
+        if (o_.rows == "balanced") {
+          add(pre + "column_balance_rounds", double(p.rows.balance_rounds));
+          add(pre + "column_balance_residual", p.rows.balance_residual);
+        }
       }
     }
     return s;
@@ -365,7 +371,16 @@ class HierarchicalSolver final : public Solver {
                                      channels_, &clusters_);
     tree_ = std::move(tree);
     RowStats rows;
-    if (o_.rows == "leaf") rows = normalise_rows(tree_, charts_);
+    if (o_.rows != "links") rows = normalise_rows(tree_, charts_, o_.rows == "balanced");
+    // Sinkhorn scaling meets row and column targets together only where the link pattern
+    // allows it; where it does not, the columns stay off by the residual: say so.
+    if (o_.rows == "balanced" && rows.balance_residual > 1e-6)
+      log::warning(
+          "hierarchical: rows=balanced: the columns did not reach their targets (largest "
+          "relative miss " +
+          text::format_double(rows.balance_residual) + " after " +
+          std::to_string(rows.balance_rounds) +
+          " rounds); the reflected light is conserved only to that");
     system_->charge_pair_evaluations(stats.pair_evaluations + rows.evaluations);
     system_->charge_rays(stats.rays);
     PassRecord record;
@@ -416,7 +431,9 @@ SolverInfo hierarchical_solver_info() {
            {"gathers", "", "gather passes at each multigrid level but the last"},
            {"order", "", "gather order: jacobi or gauss-seidel"},
            {"rows", "",
-            "leaf: each leaf's gathered light scaled to its own 2x2-rule row sum (<= 1); links: "
+            "leaf: each leaf's gathered light scaled to its own 2x2-rule row sum (<= 1); "
+            "balanced: also the reflected light each leaf sends, so that its column (the power "
+            "its light delivers) is that row sum too (Sinkhorn scaling: conserves power); links: "
             "the paper's unnormalised sum (diverges at rho near 1)"},
            {"seed", "", "seed of the visibility rays' jitter"},
            {"clustering", "",

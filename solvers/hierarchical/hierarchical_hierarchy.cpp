@@ -31,6 +31,7 @@ size_t Hierarchy::memory_bytes() const {
                           // the key index: a node, its key and a bucket pointer
                           sizeof(NodeKey) + sizeof(uint32_t) + 2 * sizeof(void*);
   return size() * (per_node + sizeof(double)) + clusters * sizeof(Vec3) +
+         (send_scale.size() + S.size()) * sizeof(double) +
          source.size() * (sizeof(uint32_t) + sizeof(double) + sizeof(uint8_t));
 }
 
@@ -173,7 +174,7 @@ void gather_range(Hierarchy& h, size_t begin, size_t end) {
                     [&](const tbb::blocked_range<size_t>& r) {
                       for (size_t i = r.begin(); i < r.end(); ++i)
                         for (int c = 0; c < h.channels; ++c) {
-                          const double* B = h.B.data() + size_t(c) * n;
+                          const double* B = h.sent().data() + size_t(c) * n;
                           double sum = 0.0;
                           for (uint64_t k = h.first[i]; k < h.first[i + 1]; ++k)
                             sum += h.factor[k] * B[h.source[k]];
@@ -244,6 +245,29 @@ const double* chart_down(const Hierarchy& h, const std::vector<double>& down, si
 
 }  // namespace
 
+void refresh_sent(Hierarchy& h, size_t begin, size_t end) {
+  if (!h.balanced()) return;
+  const size_t n = h.size();
+  for (size_t i = end; i-- > begin;)
+    for (int c = 0; c < h.channels; ++c) {
+      const size_t at = size_t(c) * n + i;
+      if (h.is_leaf(i)) {
+        const double t = h.send_scale[i];
+        h.S[at] = t == 1.0 ? h.B[at] : h.emission[at] + t * (h.B[at] - h.emission[at]);
+        continue;
+      }
+      // The same sums, in the same order, as push/pull's and pull_clusters' averages of B, so
+      // that S equals B bit for bit where every t is 1.
+      double sum = 0.0, area = 0.0;
+      for (int32_t k : h.child[i]) {
+        if (k < 0) continue;
+        area += h.area[size_t(k)];
+        sum += h.area[size_t(k)] * h.S[size_t(c) * n + size_t(k)];
+      }
+      h.S[at] = area > 0.0 ? sum / area : 0.0;
+    }
+}
+
 double jacobi_pass(Hierarchy& h) {
   gather_range(h, 0, h.size());
   std::vector<double> next(h.B.size());
@@ -257,6 +281,7 @@ double jacobi_pass(Hierarchy& h) {
                     });
   pull_clusters(h, next);
   h.B.swap(next);
+  refresh_sent(h, 0, h.size());
   return charts ? *std::max_element(change.begin(), change.end()) : 0.0;
 }
 
@@ -277,6 +302,7 @@ double gauss_seidel_pass(Hierarchy& h) {
                 next.begin() + long(base + h.chart_first[c + 1]),
                 h.B.begin() + long(base + h.chart_first[c]));
     }
+    refresh_sent(h, h.chart_first[c], h.chart_first[c + 1]);
   }
   if (h.clusters > 0) {
     pull_clusters(h, next);
@@ -285,6 +311,7 @@ double gauss_seidel_pass(Hierarchy& h) {
       std::copy(next.begin() + long(base), next.begin() + long(base + h.clusters),
                 h.B.begin() + long(base));
     }
+    refresh_sent(h, 0, h.clusters);
   }
   return change;
 }

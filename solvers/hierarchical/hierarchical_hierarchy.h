@@ -51,11 +51,19 @@ struct Hierarchy {
   // path's gathered light so that the emitted part of it is received by the leaf's own rule
   // rather than scaled with the reflected part (hierarchical_rows.h).
   std::vector<double> row_offset;
+  // Column balance (rows=balanced; hierarchical_rows.h): per node, the factor t on the reflected
+  // light a leaf sends through links (1 on interior nodes), and the values the links read,
+  // S = E + t (B - E) at leaves and area averages above (channel-major). Both empty otherwise:
+  // the links read B itself.
+  std::vector<double> send_scale, S;
   size_t leaves = 0;
   size_t clusters = 0;               // nodes [0, clusters) are clusters
   std::vector<Vec3> cluster_centre;  // per cluster
 
   size_t size() const { return key.size(); }
+  bool balanced() const { return !send_scale.empty(); }
+  // What links read: S with column balance, else B.
+  const std::vector<double>& sent() const { return balanced() ? S : B; }
   bool is_leaf(size_t i) const { return child[i][0] < 0; }
   double& b(int c, size_t i) { return B[size_t(c) * size() + i]; }
   double b(int c, size_t i) const { return B[size_t(c) * size() + i]; }
@@ -73,6 +81,10 @@ Hierarchy build_hierarchy(const std::vector<Chart>& charts, const std::vector<Li
                           const Hierarchy* previous, const std::vector<Rgb>& chart_emission,
                           const std::vector<Rgb>& chart_reflectance, int channels,
                           const ClusterTree* clusters = nullptr);
+
+// Recomputes S from B and send_scale for nodes [begin, end) (children after their parents in
+// index order, so a descending sweep sees every child first). No-op without column balance.
+void refresh_sent(Hierarchy& h, size_t begin, size_t end);
 
 // One Jacobi pass: every node gathers from the previous B, then push/pull sets the new B.
 // Returns the largest change of a leaf radiosity (any channel).

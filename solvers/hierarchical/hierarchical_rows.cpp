@@ -135,12 +135,44 @@ LeafRow leaf_row(const Hierarchy& h, const std::vector<Chart>& charts,
   return r;
 }
 
-// The reflected light's column sums after normalisation: c_j, the fraction of leaf j's light
-// that the normalised gathers deliver, per unit of j's power (Σ_L A_L row_scale_L K_Lj / A_j).
-// Links from a source node spread its light over its leaves in proportion to area, so
-// c_j = Σ over j's path s of acc_s / A_s, acc_s = Σ over links from s of f × W_receiver,
+// What every leaf gathers through its path's links when leaf j sends the value v_j (interior
+// nodes send the area average of their leaves', as pull makes B): Σ over links k on L's path of
+// factor_k × (pulled v at source_k). Parents precede their children in index order.
+std::vector<double> path_gather(const Hierarchy& h, const std::vector<double>& leaf_value) {
+  const size_t n = h.size();
+  std::vector<double> v(n, 0.0), g(n, 0.0);
+  for (size_t i = n; i-- > 0;) {
+    if (h.is_leaf(i)) {
+      v[i] = leaf_value[i];
+      continue;
+    }
+    double sum = 0.0, area = 0.0;
+    for (int32_t k : h.child[i]) {
+      if (k < 0) continue;
+      area += h.area[size_t(k)];
+      sum += h.area[size_t(k)] * v[size_t(k)];
+    }
+    v[i] = area > 0.0 ? sum / area : 0.0;
+  }
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256),
+                    [&](const tbb::blocked_range<size_t>& r) {
+                      for (size_t i = r.begin(); i < r.end(); ++i) {
+                        double sum = 0.0;
+                        for (uint64_t k = h.first[i]; k < h.first[i + 1]; ++k)
+                          sum += h.factor[k] * v[h.source[k]];
+                        g[i] = sum;
+                      }
+                    });
+  for (size_t i = 0; i < n; ++i)
+    if (h.parent[i] >= 0) g[i] += g[size_t(h.parent[i])];
+  return g;
+}
+
+// Per leaf j, Σ_L A_L row_scale_L K_Lj / A_j: the power j's light delivers per unit (before j's
+// own send_scale). Links from a source node spread its light over its leaves in proportion to
+// area, so c_j = Σ over j's path s of acc_s / A_s, acc_s = Σ over links from s of f × W_receiver,
 // W_a = Σ over leaves L under a of A_L row_scale_L.
-void column_sums(const Hierarchy& h, RowStats& stats) {
+std::vector<double> raw_columns(const Hierarchy& h) {
   const size_t n = h.size();
   std::vector<double> weight(n, 0.0), acc(n, 0.0), column(n, 0.0);
   for (size_t i = n; i-- > 0;) {
@@ -150,13 +182,24 @@ void column_sums(const Hierarchy& h, RowStats& stats) {
   for (size_t a = 0; a < n; ++a)
     for (uint64_t k = h.first[a]; k < h.first[a + 1]; ++k)
       acc[h.source[k]] += h.factor[k] * weight[a];
+  for (size_t i = 0; i < n; ++i)
+    column[i] = (h.area[i] > 0.0 ? acc[i] / h.area[i] : 0.0) +
+                (h.parent[i] >= 0 ? column[size_t(h.parent[i])] : 0.0);
+  return column;
+}
+
+// The reflected light's column sums after normalisation: c_j, the fraction of leaf j's light
+// that the normalised gathers deliver, per unit of j's power (Σ_L A_L row_scale_L K_Lj / A_j,
+// times j's send_scale with column balance); their range and area-weighted mean |c - 1|.
+void column_sums(const Hierarchy& h, RowStats& stats) {
+  const std::vector<double> column = raw_columns(h);
   double lo = 1e300, hi = -1e300, deviation = 0.0, area = 0.0;
-  for (size_t i = 0; i < n; ++i) {
-    column[i] = acc[i] / h.area[i] + (h.parent[i] >= 0 ? column[size_t(h.parent[i])] : 0.0);
+  for (size_t i = 0; i < h.size(); ++i) {
     if (!h.is_leaf(i) || !(h.area[i] > 0.0)) continue;
-    lo = std::min(lo, column[i]);
-    hi = std::max(hi, column[i]);
-    deviation += h.area[i] * std::abs(column[i] - 1.0);
+    const double sent = column[i] * (h.balanced() ? h.send_scale[i] : 1.0);
+    lo = std::min(lo, sent);
+    hi = std::max(hi, sent);
+    deviation += h.area[i] * std::abs(sent - 1.0);
     area += h.area[i];
   }
   stats.min_column = lo <= hi ? lo : 0.0;
@@ -164,9 +207,43 @@ void column_sums(const Hierarchy& h, RowStats& stats) {
   stats.mean_column_deviation = area > 0.0 ? deviation / area : 0.0;
 }
 
+// Column balance (rows=balanced): the row targets r_L = min(T_L, 1) as before, and column
+// targets the same numbers, because by reciprocity the power a leaf's light delivers is its own
+// row sum (Σ_L A_L F_Lj = A_j Σ_L F_jL). Alternating scalings (Sinkhorn–Knopp) of the leaves'
+// gathers (row_scale) and of the reflected light they send (send_scale) meet both; the totals
+// agree (Σ A r on both sides), so the alternation converges where every leaf gathers from and
+// sends to some other. Stops at 1e-9 relative or 200 rounds.
+void balance_columns(Hierarchy& h, const std::vector<double>& target,
+                     const std::vector<char>& active, RowStats& stats) {
+  const size_t n = h.size();
+  h.send_scale.assign(n, 1.0);
+  std::vector<double>& t = h.send_scale;
+  for (int round = 0; round < 200; ++round) {
+    const std::vector<double> g = path_gather(h, t);
+    for (size_t i = 0; i < n; ++i)
+      if (active[i] && g[i] > 0.0) h.row_scale[i] = target[i] / g[i];
+    const std::vector<double> c = raw_columns(h);
+    double worst = 0.0;
+    for (size_t j = 0; j < n; ++j) {
+      if (!active[j] || !(c[j] > 0.0) || !(target[j] > 0.0)) continue;
+      worst = std::max(worst, std::abs(t[j] * c[j] / target[j] - 1.0));
+      t[j] = target[j] / c[j];
+    }
+    stats.balance_rounds = round + 1;
+    stats.balance_residual = worst;
+    if (worst < 1e-9) break;
+  }
+  // The last rows against the last t: rows exact, columns within balance_residual.
+  const std::vector<double> g = path_gather(h, t);
+  for (size_t i = 0; i < n; ++i)
+    if (active[i] && g[i] > 0.0) h.row_scale[i] = target[i] / g[i];
+  h.S.assign(h.B.size(), 0.0);
+  refresh_sent(h, 0, n);
+}
+
 }  // namespace
 
-RowStats normalise_rows(Hierarchy& h, const std::vector<Chart>& charts) {
+RowStats normalise_rows(Hierarchy& h, const std::vector<Chart>& charts, bool balance) {
   const size_t n = h.size(), nc = h.chart_first.size() - 1;
   h.row_scale.assign(n, 1.0);
   h.row_offset.assign(size_t(h.channels) * n, 0.0);
@@ -188,6 +265,8 @@ RowStats normalise_rows(Hierarchy& h, const std::vector<Chart>& charts) {
   });
   RowStats stats;
   stats.min_link_sum = 1e300;
+  std::vector<double> target(n, 0.0);
+  std::vector<char> active(n, 0);
   for (size_t i = 0; i < n; ++i) {
     if (!h.is_leaf(i)) continue;
     const LeafRow& r = rows[i];
@@ -196,13 +275,8 @@ RowStats normalise_rows(Hierarchy& h, const std::vector<Chart>& charts) {
     if (!(r.link_sum > 0.0 && std::isfinite(r.link_sum))) continue;
     const double row = std::min(r.row, 1.0);
     h.row_scale[i] = row / r.link_sum;
-    // The emitted light's row: the point-like links' source-side values, the rest's leaf-side
-    // values scaled so the whole row is `row` again (a furnace's uniform E still gives E row).
-    const double rest = r.row - r.point_leaf_side;
-    const double alpha = rest > 0.0 ? std::max(0.0, row - r.point_source_side) / rest : 1.0;
-    for (int c = 0; c < h.channels; ++c)
-      h.row_offset[size_t(c) * n + i] = r.point_emission[c] + alpha * r.other_emission[c] -
-                                        h.row_scale[i] * r.gathered_emission[c];
+    target[i] = row;
+    active[i] = 1;
     stats.max_link_sum = std::max(stats.max_link_sum, r.link_sum);
     stats.min_link_sum = std::min(stats.min_link_sum, r.link_sum);
     stats.max_row = std::max(stats.max_row, row);
@@ -210,6 +284,19 @@ RowStats normalise_rows(Hierarchy& h, const std::vector<Chart>& charts) {
     stats.max_change = std::max(stats.max_change, std::abs(h.row_scale[i] - 1.0));
   }
   if (stats.min_link_sum > stats.max_link_sum) stats.min_link_sum = 0.0;
+  if (balance) balance_columns(h, target, active, stats);
+  // The emitted light's row, once the row scales are final: the point-like links' source-side
+  // values, the rest's leaf-side values scaled so the whole row is `row` again (a furnace's
+  // uniform E still gives E row); it replaces what the scaled gather holds of the emitted light.
+  for (size_t i = 0; i < n; ++i) {
+    if (!active[i]) continue;
+    const LeafRow& r = rows[i];
+    const double rest = r.row - r.point_leaf_side;
+    const double alpha = rest > 0.0 ? std::max(0.0, target[i] - r.point_source_side) / rest : 1.0;
+    for (int c = 0; c < h.channels; ++c)
+      h.row_offset[size_t(c) * n + i] = r.point_emission[c] + alpha * r.other_emission[c] -
+                                        h.row_scale[i] * r.gathered_emission[c];
+  }
   column_sums(h, stats);
   return stats;
 }

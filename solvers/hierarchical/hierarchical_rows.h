@@ -31,9 +31,16 @@
 // leaf, so the leaves a point-like lamp reaches receive exactly its power, its points seeing a
 // partition of the room), the other emitting links by the leaf's 2 x 2 value, scaled so the
 // emitted row is min(T_L, 1) as before (a furnace's uniform E gives E / (1 - rho) exactly).
-// The reflected light's transfer is still not conservative: the rows sum to min(T_L, 1) but the
-// columns c_j (the power leaf j's light delivers, per unit) do not; RowStats reports their range
-// and mean deviation (docs/solvers.md, "Emitted light").
+// The reflected light's transfer is not conservative by rows alone: the rows sum to min(T_L, 1)
+// but the columns c_j (the power leaf j's light delivers, per unit) do not; RowStats reports
+// their range and mean deviation (docs/solvers.md, "Emitted light").
+//
+// Column balance (rows=balanced): a second, source-side scale t_j on the reflected light each
+// leaf sends (B - E, so the emitted light keeps its own rule), found with the row scales by
+// alternating (Sinkhorn–Knopp) scaling until every leaf's column is its row target too: by
+// reciprocity the power a leaf's light delivers is its own row sum. Then a closed scene passes
+// on every unit of reflected power it receives. Links read S = E + t (B - E) (pulled) instead
+// of B; B itself, what the leaves show, is unchanged in form.
 //
 // Clusters: a leaf's path runs on through its chart's clusters; a link from a cluster source is
 // evaluated at the leaf's four points by the isotropic kernel (hierarchical_clusters.h), and its
@@ -65,9 +72,14 @@ struct RowStats {
   // The reflected light's column sums after normalisation (the power a leaf's light delivers,
   // per unit of it): their range and area-weighted mean |c - 1|.
   double min_column = 0.0, max_column = 0.0, mean_column_deviation = 0.0;
+  // Column balance (balance = true): Sinkhorn rounds taken, and the largest relative distance of
+  // a leaf's column from its target at the end.
+  int balance_rounds = 0;
+  double balance_residual = 0.0;
 };
 
-// Sets h.row_scale for every leaf (1 for interior nodes and leaves that gather nothing).
-RowStats normalise_rows(Hierarchy& h, const std::vector<Chart>& charts);
+// Sets h.row_scale for every leaf (1 for interior nodes and leaves that gather nothing); with
+// `balance`, also h.send_scale and h.S so that every leaf's column meets its row target too.
+RowStats normalise_rows(Hierarchy& h, const std::vector<Chart>& charts, bool balance = false);
 
 }  // namespace radlab::hier
