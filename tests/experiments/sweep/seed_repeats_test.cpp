@@ -231,5 +231,23 @@ TEST(SolverSeeds, PlotScriptDrawsTheBand) {
   EXPECT_TRUE(fs::exists(dir.file("out/plots/cube_rho_0.8_rms_rel_reflected_vs_pair_evals.png")));
 }
 
+// scripts/seed_variance.py reads the runs' radiosities by configuration: one row for the four
+// seeds, the baseline's ratio to itself exactly 1.
+TEST(SolverSeeds, SeedVarianceScriptReadsTheRuns) {
+  if (std::system("/usr/bin/python3 -c 'import numpy' 2>/dev/null") != 0)
+    GTEST_SKIP() << "python3-numpy not installed";
+  TempDir dir;
+  run_sweep(read_experiment(dir.write("e.toml", kRepeats)), {dir.file("out"), 0, 1, "test"});
+  const std::string command = "/usr/bin/python3 " + std::string(RADLAB_SOURCE_DIR) +
+                              "/scripts/seed_variance.py " + dir.file("out") + " > " +
+                              dir.file("variance.md");
+  ASSERT_EQ(std::system(command.c_str()), 0);
+  const std::string table = read_text_file(dir.file("variance.md"));
+  EXPECT_NE(table.find("| builtin:cube:rho=0.8 | stochastic-jacobi rays=2000 | 4 | 1.6e+04 |"),
+            std::string::npos)
+      << table;
+  EXPECT_NE(table.find("| 1 ["), std::string::npos) << table;
+}
+
 }  // namespace
 }  // namespace radlab
