@@ -12,6 +12,10 @@ run's scene, mesh and form factors) and writes into OUT_DIR/plots/, per scene an
   <scene>_p_mean_vs_seconds   one line per run, log y; solid = solution(), dashed = display()
                               when it differs (e.g. Cohen's ambient term);
   <scene>_p_channels          per-channel p-error panels (Wu & Wang 2002, Figs 1 and 3), RGB scenes.
+A configuration run over several solver seeds (aggregate.csv lists it: `solver_seeds` or `repeats`
+in the experiment) is drawn as one line, the mean over its seeds at each checkpoint, inside a
+shaded 90% band, mean +- t90 sd/sqrt(K) with aggregate.csv's Student-t factor t90 (the band of
+the summary's final values, experiments/run/seed_aggregate.h).
 Each figure is titled with the experiment, the scene, the mesh (elements, subdivision or element
 size) and the form-factor settings (method, parameters, precision, cached or on the fly). When a
 scene appears with several meshes or form-factor settings, <scene> gets a suffix per setting.
@@ -89,11 +93,53 @@ def positive(series):
     return values
 
 
+def seed_configurations(out_dir, run_ids):
+    """{run_id: (configuration, t90)} for the runs of configurations aggregate.csv lists with at
+    least two seeds (empty without aggregate.csv)."""
+    aggregate_path = os.path.join(out_dir, "aggregate.csv")
+    if not os.path.exists(aggregate_path):
+        return {}
+    aggregate = pd.read_csv(aggregate_path, keep_default_na=False, dtype=str)
+    t90 = {row["configuration"]: float(row["t90"]) for _, row in aggregate.iterrows()
+           if row["t90"] != "" and int(row["seeds"]) >= 2}
+    summary = pd.read_csv(os.path.join(out_dir, "summary.csv"), keep_default_na=False, dtype=str)
+    summary = summary[summary["run_id"].isin(run_ids) & (summary["error"] == "")]
+    return {row["run_id"]: (row["configuration"], t90[row["configuration"]])
+            for _, row in summary.iterrows() if row["configuration"] in t90}
+
+
+def with_seed_bands(runs, configurations, metrics, axes):
+    """The runs as plotted: a run of a repeated configuration is replaced by one entry per
+    configuration holding, per step, the mean over its seeds of each metric and x axis and the
+    band columns METRIC_low / METRIC_high (mean -+ t90 sd / sqrt(K))."""
+    plotted, grouped = [], {}
+    for run_id, data in runs:
+        if run_id in configurations:
+            grouped.setdefault(configurations[run_id], []).append(data)
+        else:
+            plotted.append((run_id, data))
+    for (configuration, t90), frames in grouped.items():
+        rows = pd.concat(frames)
+        steps = rows.groupby("step", sort=True)
+        data = steps[axes + metrics].mean().reset_index()
+        count = steps.size().to_numpy()
+        for metric in metrics:
+            half = t90 * steps[metric].std(ddof=1).to_numpy() / np.sqrt(count)
+            data[f"{metric}_low"] = data[metric] - half
+            data[f"{metric}_high"] = data[metric] + half
+        k = len(frames)
+        plotted.append((f"{label_of(configuration, '')} (mean of {k} seeds, 90% band)", data))
+    return plotted
+
+
 def plot_metric(runs, metric, x, title, path_stem, formats):
     fig, ax = plt.subplots(figsize=(7.5, 4.8))
     for i, (run_id, data) in enumerate(runs):
         colour = f"C{i % 10}"
         label = label_of(run_id, "")
+        if f"{metric}_low" in data:
+            ax.fill_between(data[x], positive(data[f"{metric}_low"]),
+                            positive(data[f"{metric}_high"]), color=colour, alpha=0.25, lw=0)
         ax.plot(data[x], positive(data[metric]), color=colour, lw=1.4, label=label)
         display = f"{metric}_display"
         if display in data and not np.allclose(
@@ -155,6 +201,7 @@ def main(argv):
     plots = args.out or os.path.join(args.out_dir, "plots")
     os.makedirs(plots, exist_ok=True)
     written = []
+    configurations = seed_configurations(args.out_dir, run_ids)
     # Group the runs by scene, mesh and form factors (one set of figures each).
     problems = {}
     for run_id, scene in trace.groupby("run_id", sort=False)["scene"].first().items():
@@ -172,12 +219,13 @@ def main(argv):
             safe += "_" + str(per_scene[scene].index(key) + 1)
         scene_rows = trace[trace["run_id"].isin(run_ids)]
         mean = scene_rows[scene_rows["channel"] == "mean"]
-        runs = list(mean.groupby("run_id", sort=False))
         title = f"{name}: {description}"
         # Traces from before the pair_evals / rms_rel_reflected / seconds_with_setup columns still
         # plot.
         metrics = [m for m in ["rms_rel", "p_mean", "rms_rel_reflected"] if m in mean]
         axes = [x for x in ["ff_rows", "seconds", "pair_evals", "seconds_with_setup"] if x in mean]
+        runs = with_seed_bands(list(mean.groupby("run_id", sort=False)), configurations,
+                               metrics, axes)
         for metric in metrics:
             for x in axes:
                 stem = os.path.join(plots, f"{safe}_{metric}_vs_{'rows' if x == 'ff_rows' else x}")

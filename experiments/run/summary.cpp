@@ -178,6 +178,10 @@ ColumnTable<SummaryRecord> make_summary_table() {
       number([](const Record&, const RunResult& x) { return x.final_errors.p_excluded_area; }));
   add("seconds_with_setup", "solver seconds plus the set-up the run depended on (trace.csv's `seconds_with_setup`: the matrix's recorded build time for a run that read its rows, the patch rows' on two levels, nothing for rows on the fly, hierarchical or Monte Carlo runs)",
       number([](const Record&, const RunResult& x) { return x.seconds_with_setup; }), true);
+  add("configuration", "the run id without the solver's `seed` parameter: the runs over seeds of one configuration share it (aggregate.csv)",
+      [](CsvWriter& c, const Record& r) { c.add(r.in.configuration); });
+  add("solver_seed", "the solver's `seed` parameter as the experiment gave it (`solver_seeds`, `repeats` or `[parameters.SOLVER] seed`), empty when not given",
+      [](CsvWriter& c, const Record& r) { c.add(r.in.solver_seed); });
   // clang-format on
   return t;
 }

@@ -23,6 +23,10 @@ struct SummaryInputs {
   double spectral_radius = 0.0;  // of diag(rho)F, worst channel (NaN if not estimated): the
                                  // Collatz–Wielandt upper bound, and below the lower bound
   double spectral_radius_lower = std::nan("");
+  // The run id without the solver's `seed` parameter, and that seed (empty when not given):
+  // runs over several seeds of one configuration are aggregated (seed_aggregate.h).
+  std::string configuration;
+  std::string solver_seed;
 };
 
 // What first_reach measures, and against which x.

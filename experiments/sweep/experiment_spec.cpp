@@ -2,6 +2,7 @@
 
 #include <toml++/toml.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <filesystem>
@@ -199,6 +200,50 @@ void read_seeds(const Reader& r, const toml::table& root, ExperimentSpec& spec) 
     });
 }
 
+// solver_seeds = [...] or repeats = K (seeds 0..K-1): named apart from `seeds`, which are the
+// form factors' seeds (a new problem each), since these repeat runs on the same problem.
+void read_solver_seeds(const Reader& r, const toml::table& root, ExperimentSpec& spec) {
+  if (root["solver_seeds"] && root["repeats"])
+    r.fail(*root["repeats"].node(), "give 'solver_seeds' or 'repeats', not both");
+  if (auto n = root["solver_seeds"])
+    spec.solver_seeds = r.distinct_list(*n.node(), "solver_seeds", [&](const toml::node& v) {
+      const long long seed = r.integer(v, "solver seed");
+      if (seed < 0) r.fail(v, "solver_seeds must be >= 0, got " + std::to_string(seed));
+      return seed;
+    });
+  if (auto n = root["repeats"]) {
+    const long long k = r.integer(*n.node(), "repeats");
+    // Checked here against the runs limit's order of magnitude before any list is built.
+    if (k < 1 || k > 1000000)
+      r.fail(*n.node(), "repeats must lie in [1, 1000000], got " + std::to_string(k));
+    for (long long seed = 0; seed < k; ++seed) spec.solver_seeds.push_back(seed);
+  }
+}
+
+// The solver seeds become each solver's `seed` axis. A solver without a `seed` parameter would
+// give K identical runs, and a `seed` axis of its own would clash: both are refused.
+void apply_solver_seeds(const Reader& r, const toml::table& root, ExperimentSpec& spec) {
+  if (spec.solver_seeds.empty()) return;
+  const char* key = root["solver_seeds"] ? "solver_seeds" : "repeats";
+  const toml::node& node = *root[key].node();
+  std::vector<std::string> seeds;
+  for (long long seed : spec.solver_seeds) seeds.push_back(std::to_string(seed));
+  for (SolverSweep& solver : spec.solvers) {
+    const SolverInfo& info = solver_info(solver.name);
+    const bool seeded = std::any_of(info.parameters.begin(), info.parameters.end(),
+                                    [](const ParameterInfo& p) { return p.name == "seed"; });
+    if (!seeded)
+      r.fail(node, std::string(key) + ": solver '" + solver.name +
+                       "' has no 'seed' parameter (its runs over seeds would be identical); "
+                       "list only seeded solvers in an experiment with '" +
+                       key + "'");
+    if (solver.parameters.count("seed"))
+      r.fail(node, std::string(key) + ": [parameters." + solver.name +
+                       "] gives 'seed' too; give the seeds in one place");
+    solver.parameters["seed"] = seeds;
+  }
+}
+
 void read_form_factors(const Reader& r, const toml::table& root, ExperimentSpec& spec) {
   if (const toml::table* ff = root["form_factors"].as_table()) {
     for (auto&& [key, node] : *ff) {
@@ -375,7 +420,8 @@ ExperimentSpec read_experiment(const std::string& path) {
   const Reader r(path);
   r.only(root,
          {"name", "description", "scenes", "subdiv", "element_size", "solvers", "seeds",
-          "form_factors", "patches", "budget", "checkpoints", "parameters", "images", "coverage"},
+          "solver_seeds", "repeats", "form_factors", "patches", "budget", "checkpoints",
+          "parameters", "images", "coverage"},
          "the experiment");
   ExperimentSpec spec;
   spec.path = path;
@@ -390,6 +436,8 @@ ExperimentSpec read_experiment(const std::string& path) {
   read_budget(r, root, spec);
   read_checkpoints(r, root, spec);
   read_parameters(r, root, spec);
+  read_solver_seeds(r, root, spec);
+  apply_solver_seeds(r, root, spec);
   read_images(r, root, spec);
   read_coverage(r, root, spec);
   resolve_scene_paths(spec);
@@ -406,6 +454,12 @@ std::string make_run_id(const std::string& solver, const std::string& problem_la
   std::string id = solver + "/" + problem_label;
   for (const auto& [k, v] : parameters) id += "/" + k + ":" + v;
   return id;
+}
+
+std::string make_configuration(const std::string& solver, const std::string& problem_label,
+                               std::map<std::string, std::string> parameters) {
+  parameters.erase("seed");
+  return make_run_id(solver, problem_label, parameters);
 }
 
 namespace {
@@ -477,6 +531,7 @@ SweepPlan plan_sweep(const ExperimentSpec& spec) {
             run.solver = solver.name;
             run.parameters = parameters;
             run.run_id = make_run_id(solver.name, problem.label, parameters);
+            run.configuration = make_configuration(solver.name, problem.label, parameters);
             plan.runs.push_back(std::move(run));
           }
       }

@@ -39,6 +39,10 @@ struct ExperimentSpec {
   std::string ff_method = kDefaultFormFactorMethod;
   std::map<std::string, std::string> ff_parameters;  // fixed method parameters (not the seed)
   std::vector<long long> seeds;  // form-factor seeds; empty: the method's default
+  // Solver seeds (`solver_seeds = [...]`, or `repeats = K` for 0..K-1): every run is repeated
+  // once per seed, which reaches the solver as its `seed` parameter. Runs differing only in it
+  // are repeats of one configuration (aggregate.csv: experiments/run/seed_aggregate.h).
+  std::vector<long long> solver_seeds;
   Precision precision = Precision::kFloat;
   RowMode row_mode = RowMode::kCached;
   PatchOptions patches;  // [patches]: two levels (solvers/two_level/patches.h)
@@ -59,6 +63,8 @@ struct PlannedRun {
   std::string solver;
   std::map<std::string, std::string> parameters;
   std::string run_id;  // spells its parameters: solver/scene:NAME[/subdiv:K][/seed:S]/k:v...
+  // The run id without the solver's `seed` parameter: what its repeats over seeds share.
+  std::string configuration;
 };
 
 struct PlannedProblem {
@@ -79,5 +85,8 @@ SweepPlan plan_sweep(const ExperimentSpec& spec);
 std::string scene_label(const std::string& scene);
 std::string make_run_id(const std::string& solver, const std::string& problem_label,
                         const std::map<std::string, std::string>& parameters);
+// make_run_id without the `seed` parameter: the configuration a run over one seed repeats.
+std::string make_configuration(const std::string& solver, const std::string& problem_label,
+                               std::map<std::string, std::string> parameters);
 
 }  // namespace radlab

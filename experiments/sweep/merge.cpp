@@ -14,6 +14,7 @@
 #include "core/json_reader.h"
 #include "core/output_file.h"
 #include "core/text.h"
+#include "experiments/run/seed_aggregate.h"
 #include "experiments/sweep/sweep.h"
 #include "experiments/sweep/sweep_folder.h"
 
@@ -358,6 +359,9 @@ void write_merged_folder(const std::vector<Shard>& shards, const MergedSweep& me
     SweepFolderLock temp_lock(temp);
     write_rows((temp / "summary.csv").string(), first.summary.header, merged.summary_rows);
     write_rows((temp / "trace.csv").string(), first.trace.header, merged.trace_rows);
+    // Over every shard's seeds of each configuration (a shard writes none).
+    write_seed_aggregate(read_csv((temp / "summary.csv").string()),
+                         (temp / "aggregate.csv").string());
     for (const Shard& s : shards) copy_run_files(s, temp);
     // The merged folder's own manifest, like a sweep's (a merged folder is a complete sweep).
     Json sweep = merged.sweep;

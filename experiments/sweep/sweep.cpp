@@ -10,6 +10,7 @@
 #include <optional>
 #include <sstream>
 
+#include "core/csv_reader.h"
 #include "core/error.h"
 #include "core/json.h"
 #include "core/log.h"
@@ -19,6 +20,7 @@
 #include "experiments/run/images.h"
 #include "experiments/run/outputs.h"
 #include "experiments/run/run_request.h"
+#include "experiments/run/seed_aggregate.h"
 #include "experiments/run/summary.h"
 #include "experiments/run/trace.h"
 #include "experiments/sweep/sweep_folder.h"
@@ -392,6 +394,9 @@ SummaryInputs summary_inputs(const PlannedRun& run, const RunRequest& request,
   inputs.labels = request.labels;
   inputs.gathering = is_gathering(run.solver);
   inputs.spectral_radius = inputs.spectral_radius_lower = std::nan("");
+  inputs.configuration = run.configuration;
+  if (auto seed = run.parameters.find("seed"); seed != run.parameters.end())
+    inputs.solver_seed = seed->second;
   if (current.problem) {
     inputs.elements = current.problem->mesh.size();
     inputs.channels = current.problem->system->channels();
@@ -552,6 +557,10 @@ SweepReport run_sweep(const ExperimentSpec& spec, const SweepOptions& options) {
   // trace.csv and summary.csv, then sweep.json says "complete" with the manifest of every file
   // (merge and the workflow check it), then the partial rows go.
   write_sweep_tables(out, shard_runs);
+  // A shard holds only some of a configuration's seeds: its aggregate is the merge's to write.
+  if (options.shard_count == 1)
+    write_seed_aggregate(read_csv((out / "summary.csv").string()),
+                         (out / "aggregate.csv").string());
   const std::vector<ManifestEntry> manifest = folder_manifest(out);
   write_sweep_json(out, spec, options, identity, plan.runs.size(), "complete", run_ids,
                    report.failures, problem_entries, &manifest);

@@ -29,8 +29,8 @@ constexpr const char* kPartialName = ".radlab-partial";
 // Everything a sweep writes into its folder (and the plots drawn from it), and nothing else:
 // --overwrite and a replacing re-run remove exactly these.
 constexpr const char* kSweepEntries[] = {
-    "sweep.json", "trace.csv",  "summary.csv",       "runs",      "images", "coverage",
-    "plots",      "index.html", "contact_sheet.png", kPartialName};
+    "sweep.json", "trace.csv", "summary.csv", "aggregate.csv",     "runs",      "images",
+    "coverage",   "plots",     "index.html",  "contact_sheet.png", kPartialName};
 
 void clear_sweep_files(const fs::path& out) {
   for (const char* name : kSweepEntries) {
@@ -182,6 +182,10 @@ std::vector<std::string> run_folder_files(const fs::path& folder) {
 std::vector<ManifestEntry> folder_manifest(const fs::path& folder) {
   std::vector<ManifestEntry> entries;
   for (const char* table : kTables) entries.push_back(manifest_entry(folder, table));
+  // Only a sweep (or merge) whose runs have solver seeds writes it (seed_aggregate.h).
+  std::error_code ec;
+  if (fs::is_regular_file(folder / "aggregate.csv", ec))
+    entries.push_back(manifest_entry(folder, "aggregate.csv"));
   for (const std::string& file : run_folder_files(folder))
     entries.push_back(manifest_entry(folder, file));
   return entries;

@@ -11,6 +11,7 @@
 #include "core/param_bag.h"
 #include "experiments/problem/problem.h"
 #include "experiments/run/runner.h"
+#include "experiments/run/seed_aggregate.h"
 #include "experiments/run/summary.h"
 #include "experiments/run/trace.h"
 #include "solvers/registry.h"
@@ -37,6 +38,10 @@ TEST(Columns, DocsTablesAreTheColumnTables) {
   EXPECT_NE(page.find(summary), std::string::npos)
       << "docs/outputs.md must hold summary.csv's column table, as summary_table() makes it:\n"
       << summary;
+  const std::string aggregate = column_table_markdown(aggregate_table());
+  EXPECT_NE(page.find(aggregate), std::string::npos)
+      << "docs/outputs.md must hold aggregate.csv's column table, as aggregate_table() makes it:\n"
+      << aggregate;
 }
 
 // The frozen rule (docs/outputs.md): columns already published keep their names and order; new
@@ -91,6 +96,8 @@ TEST(Columns, PublishedColumnsKeepTheirNamesAndOrder) {
   EXPECT_EQ(summary[56], "solver_statistics");
   EXPECT_EQ(summary[57], "p_excluded_area");
   EXPECT_EQ(summary[58], "seconds_with_setup");
+  EXPECT_EQ(summary[59], "configuration");
+  EXPECT_EQ(summary[60], "solver_seed");
 }
 
 // A new metric is one entry: the area-weighted L1 error relative to the reference's area-weighted

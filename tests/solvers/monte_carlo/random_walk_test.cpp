@@ -12,7 +12,6 @@
 
 #include <gtest/gtest.h>
 
-#include <boost/math/distributions/students_t.hpp>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -26,6 +25,7 @@
 #include "solvers/registry.h"
 #include "tests/solver_support.h"
 #include "tests/solvers/monte_carlo/matrix_free.h"
+#include "tests/solvers/monte_carlo/seed_intervals.h"
 #include "tests/test_support.h"
 
 namespace radlab {
@@ -52,46 +52,18 @@ std::string describe(const std::vector<std::string>& params) {
   return s;
 }
 
-// For every element and channel, the mean over `seeds` seeds of the solution after `steps` steps
-// must lie within t s / sqrt(seeds) of `expected`, s the sample standard deviation over seeds and
-// t Student's quantile (seeds - 1 degrees of freedom) at 1 - alpha / (2 m), m the values tested:
-// two-sided intervals with Bonferroni's correction, so the whole test holds at confidence
-// 1 - alpha = 99.9% for an unbiased estimator (seeds are independent runs; values within a run are
-// not, which Bonferroni does not need). Returns the values outside.
+// The mean over `seeds` seeds of every value after `steps` steps against `expected`, at
+// confidence 99.9% (tests/solvers/monte_carlo/seed_intervals.h). Returns the values outside.
 size_t outside_interval(const System& system, const std::vector<std::string>& params, int steps,
                         int seeds, const Radiosity& expected) {
-  const size_t m = expected.raw().size();
-  std::vector<double> sum(m, 0.0), sum2(m, 0.0);
-  for (int seed = 1; seed <= seeds; ++seed) {
-    std::vector<std::string> p = params;
-    p.push_back("seed=" + std::to_string(seed));
-    const Radiosity B = run(system, p, steps);
-    for (size_t k = 0; k < m; ++k) {
-      sum[k] += B.raw()[k];
-      sum2[k] += B.raw()[k] * B.raw()[k];
-    }
-  }
-  const double alpha = 1e-3;
-  const double t =
-      boost::math::quantile(boost::math::students_t(seeds - 1), 1.0 - alpha / (2.0 * double(m)));
-  size_t outside = 0;
-  double worst = 0.0;
-  for (size_t k = 0; k < m; ++k) {
-    const double mean = sum[k] / seeds;
-    const double variance = std::max(0.0, (sum2[k] - seeds * mean * mean) / (seeds - 1));
-    const double half_width = t * std::sqrt(variance / seeds);
-    const double deviation = std::abs(mean - expected.raw()[k]);
-    // Rounding of the sums: a value that no walk reaches (variance 0) must be exact.
-    if (deviation > half_width + 1e-12 * std::abs(expected.raw()[k])) {
-      ++outside;
-      ADD_FAILURE() << describe(params) << ": value " << k << " mean " << mean << ", expected "
-                    << expected.raw()[k] << ", interval +-" << half_width;
-    }
-    if (half_width > 0) worst = std::max(worst, deviation / half_width);
-  }
-  std::printf("%-44s t = %.3f; %zu of %zu outside; largest |mean - expected| / half-width %.3f\n",
-              describe(params).c_str(), t, outside, m, worst);
-  return outside;
+  return testing::outside_interval(describe(params), seeds,
+                                   [&](int seed) -> std::vector<double> {
+                                     std::vector<std::string> p = params;
+                                     p.push_back("seed=" + std::to_string(seed));
+                                     const Radiosity B = run(system, p, steps);
+                                     return {B.raw().begin(), B.raw().end()};
+                                   },
+                                   {expected.raw().begin(), expected.raw().end()});
 }
 
 TEST(RandomWalk, SameSeedSameBitsAndEveryRayCharged) {
@@ -194,6 +166,8 @@ TEST(RandomWalk, ErrorFallsAsTheInverseSquareRootOfTheWalks) {
                 rms.front(), rms.back(), fit.log_rate, fit.log_rate_sigma);
     EXPECT_GT(fit.log_rate, -0.56) << walks;
     EXPECT_LT(fit.log_rate, -0.44) << walks;
+    // And the fit's own interval: -1/2 within 3 sigma of the fitted exponent.
+    EXPECT_LT(std::abs(fit.log_rate + 0.5), 3.0 * fit.log_rate_sigma + 1e-12) << walks;
   }
 }
 
