@@ -69,9 +69,13 @@ uint64_t PowerPropagation::propagate(const Radiosity& x, uint64_t rays, UniformS
   if (stride != channels_)
     throw std::invalid_argument("PowerPropagation: x has " + std::to_string(channels) +
                                 " channels, the reflectance " + std::to_string(channels_));
-  y = Radiosity(channels, n);
+  if (y.channels() == channels && y.size() == n)
+    std::fill(y.raw().begin(), y.raw().end(), 0.0);  // the caller's buffer, reused
+  else
+    y = Radiosity(channels, n);
   // The discrete distribution over sources: |P_i| summed over channels.
-  std::vector<double> weight(n);
+  std::vector<double>& weight = scratch_.weight;
+  weight.resize(n);
   for (size_t i = 0; i < n; ++i) {
     double w = 0.0;
     for (int c = 0; c < channels; ++c) w += std::abs(x.at(c, i));
@@ -83,7 +87,8 @@ uint64_t PowerPropagation::propagate(const Radiosity& x, uint64_t rays, UniformS
   // Per ray and channel: P_ic / (N p_i) = A_i x_ic * total / (N A_i w_i) = x_ic total / (N w_i),
   // element after element (a ray's source then costs one memory access, not one per channel).
   const double per_ray = total / double(rays);
-  std::vector<double> carried(n * stride, 0.0);
+  std::vector<double>& carried = scratch_.carried;
+  carried.assign(n * stride, 0.0);
   for (size_t i = 0; i < n; ++i) {
     if (!(weight[i] > 0.0)) continue;  // never a source
     const double scale = per_ray * mesh_.area[i] / weight[i];
@@ -92,11 +97,13 @@ uint64_t PowerPropagation::propagate(const Radiosity& x, uint64_t rays, UniformS
   // The deposits, element after element, each beside the element's rho / A (one cache line
   // for a hit, not two), copied into y's channels at the end.
   const size_t cell = 2 * stride;
-  std::vector<double> received(n * cell, 0.0);
+  std::vector<double>& received = scratch_.received;
+  received.assign(n * cell, 0.0);
   for (size_t j = 0; j < n; ++j) std::copy_n(&gain_[j * stride], stride, &received[j * cell]);
 
-  std::vector<double> u, sorted_u;
-  std::vector<uint32_t> order, scratch, key, sorted_source, hit;
+  std::vector<double>&u = scratch_.u, &sorted_u = scratch_.sorted_u;
+  std::vector<uint32_t>&order = scratch_.order, &scratch = scratch_.scratch, &key = scratch_.key;
+  std::vector<uint32_t>&sorted_source = scratch_.sorted_source, &hit = scratch_.hit;
   for (uint64_t first = 0; first < rays; first += kBlockRays) {
     const size_t count = size_t(std::min(kBlockRays, rays - first));
     u.resize(count * kDimensions);

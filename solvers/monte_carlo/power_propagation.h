@@ -37,7 +37,8 @@ class PowerPropagation {
   PowerPropagation(const Mesh& mesh, const Radiosity& reflectance, const ElementRays& rays);
 
   // y = an estimate of R x with `rays` rays, numbers from `stream` (blocks numbered from
-  // `*block`, which advances). Returns the rays cast (0 when x carries no power).
+  // `*block`, which advances). Returns the rays cast (0 when x carries no power). One call at a
+  // time per object (it reuses its buffers).
   uint64_t propagate(const Radiosity& x, uint64_t rays, UniformStream& stream, uint64_t* block,
                      Radiosity& y) const;
 
@@ -52,6 +53,15 @@ class PowerPropagation {
   const ElementRays& rays_;
   size_t channels_;
   std::vector<double> gain_;  // rho_jc / A_j, element-major (channels of j together)
+  // The buffers of propagate(), kept from call to call: allocated afresh each step, their pages
+  // were faulted in and cleared by the kernel every time (3% of bench_monte_carlo's time). So
+  // propagate() must not run on one object from two threads at once (the solvers call it from
+  // one).
+  struct Scratch {
+    std::vector<double> weight, carried, received, u, sorted_u;
+    std::vector<uint32_t> order, scratch, key, sorted_source, hit;
+  };
+  mutable Scratch scratch_;
 };
 
 }  // namespace radlab::monte_carlo
