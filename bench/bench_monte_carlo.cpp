@@ -11,10 +11,13 @@
 //     directions drawn beforehand from the same distribution (an element chosen by the power the
 //     regular steps propagate, a uniform point on it, a cosine direction), outside the timing:
 //     Embree's own cost, nothing else;
+//   - the same raw rays again, ordered by their source element as a step orders its rays (it
+//     sorts each block's rays by the number that picks the source, power_propagation.cpp):
+//     Embree alone on the step's order, to tell how much of the step's speed is the order's;
 //   - one step of random-walk (shooting walks, collision estimator) of 2^15 walks, rays counted
 //     by the System.
-// Counters: sj_rays_per_s, embree_rays_per_s, rw_rays_per_s, and the ratios sj_vs_embree and
-// rw_vs_embree.
+// Counters: sj_rays_per_s, embree_rays_per_s, embree_sorted_rays_per_s, rw_rays_per_s, and the
+// ratios sj_vs_embree (issue 32's target), sj_vs_embree_sorted and rw_vs_embree.
 //
 // Run: build/bench/bench_monte_carlo --benchmark_counters_tabular=true
 #include <benchmark/benchmark.h>
@@ -46,7 +49,23 @@ std::unique_ptr<Solver> make(const char* name, std::vector<std::string> params) 
 
 struct RawRays {
   std::vector<Vec3> origin, direction;
+  std::vector<size_t> element;  // the source's
 };
+
+// The same rays ordered by source element (ties in draw order).
+RawRays by_source(const RawRays& raw) {
+  std::vector<size_t> order(raw.origin.size());
+  for (size_t k = 0; k < order.size(); ++k) order[k] = k;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](size_t a, size_t b) { return raw.element[a] < raw.element[b]; });
+  RawRays sorted;
+  for (size_t k : order) {
+    sorted.origin.push_back(raw.origin[k]);
+    sorted.direction.push_back(raw.direction[k]);
+    sorted.element.push_back(raw.element[k]);
+  }
+  return sorted;
+}
 
 // kRays rays as a regular stochastic-jacobi step draws them: elements by power A_i sum_c |B_ic|
 // (most rays leave the lamp and the lit walls), a uniform point, a cosine direction.
@@ -67,6 +86,7 @@ RawRays raw_rays(const Mesh& mesh, const Radiosity& B) {
     const size_t e = std::min(i, mesh.size() - 1);
     const double u1 = rng.next_double(), u2 = rng.next_double();
     const double u3 = rng.next_double(), u4 = rng.next_double();
+    r.element.push_back(e);
     r.origin.push_back(monte_carlo::point_on_element(mesh, e, u1, u2));
     r.direction.push_back(monte_carlo::cosine_direction(mesh.normal[e], u3, u4));
   }
@@ -85,8 +105,9 @@ void BM_StochasticJacobiAgainstRawEmbree(benchmark::State& state) {
   // Past the incremental steps (8 on this box), untimed: every timed step is a regular one.
   for (int k = 0; k < 12; ++k) jacobi->step();
   const RawRays raw = raw_rays(c.mesh, jacobi->solution());
+  const RawRays sorted = by_source(raw);
   const double t_near = 1e-6;  // as the solvers' (a millionth of the box's ~1 m size)
-  double sj_seconds = 0.0, embree_seconds = 0.0, rw_seconds = 0.0;
+  double sj_seconds = 0.0, embree_seconds = 0.0, sorted_seconds = 0.0, rw_seconds = 0.0;
   uint64_t sj_rays = 0, embree_rays = 0, rw_rays = 0, hits = 0;
   for (auto _ : state) {
     uint64_t before = system.rays_used();
@@ -101,6 +122,11 @@ void BM_StochasticJacobiAgainstRawEmbree(benchmark::State& state) {
     embree_seconds += thread_seconds(start);
     embree_rays += kRays;
 
+    start = thread_now();
+    for (uint64_t k = 0; k < kRays; ++k)
+      hits += c.embree->intersect(sorted.origin[k], sorted.direction[k], t_near, 1e30).hit ? 1 : 0;
+    sorted_seconds += thread_seconds(start);
+
     before = system.rays_used();
     start = thread_now();
     walks->step();
@@ -110,10 +136,13 @@ void BM_StochasticJacobiAgainstRawEmbree(benchmark::State& state) {
   benchmark::DoNotOptimize(hits);
   const double sj = double(sj_rays) / sj_seconds, embree = double(embree_rays) / embree_seconds;
   const double rw = double(rw_rays) / rw_seconds;
+  const double embree_sorted = double(embree_rays) / sorted_seconds;
   state.counters["sj_rays_per_s"] = sj;
   state.counters["embree_rays_per_s"] = embree;
   state.counters["rw_rays_per_s"] = rw;
+  state.counters["embree_sorted_rays_per_s"] = embree_sorted;
   state.counters["sj_vs_embree"] = sj / embree;
+  state.counters["sj_vs_embree_sorted"] = sj / embree_sorted;
   state.counters["rw_vs_embree"] = rw / embree;
 }
 BENCHMARK(BM_StochasticJacobiAgainstRawEmbree)->Unit(benchmark::kMillisecond)->MinTime(2.0);

@@ -28,6 +28,9 @@ ElementRays::ElementRays(const Mesh& mesh)
     Source& s = sources_[e];
     const std::span<const uint32_t> v = mesh.element_vertices(e);
     s.normal = mesh.normal[e];
+    const Frame frame = frame_about(s.normal);
+    s.tangent = frame.t;
+    s.bitangent = frame.b;
     s.polygon = mesh.polygon[e];
     s.fan = v.size() == 3 || v.size() == 4;
     if (!s.fan) continue;
@@ -38,23 +41,29 @@ ElementRays::ElementRays(const Mesh& mesh)
     const double first = glm::length(glm::cross(s.b - s.a, s.c - s.a));
     const double second = v.size() == 4 ? glm::length(glm::cross(s.c - s.a, s.d - s.a)) : 0.0;
     s.first_share = first + second > 0.0 ? first / (first + second) : 1.0;
+    s.first_scale = s.first_share > 0.0 ? 1.0 / s.first_share : 0.0;
+    s.second_scale = s.first_share < 1.0 ? 1.0 / (1.0 - s.first_share) : 0.0;
   }
 }
 
 Vec3 ElementRays::origin(const Source& s, size_t element, double u1, double u2) const {
   if (!s.fan) return point_on_element(mesh_, element, u1, u2);
-  // The triangle by area, u1 rescaled to [0,1) within it (as point_on_element).
-  const bool first = u1 < s.first_share;
-  const double t = first ? u1 / s.first_share : (u1 - s.first_share) / (1.0 - s.first_share);
+  // The triangle by area, u1 rescaled to [0,1) within it (as point_on_element). Without a
+  // branch (which triangle is a coin toss on a quad): m is 1 or 0, and m x + (1 - m) y is x or y
+  // exactly. A triangle's share is 1, so m is 1 there.
+  const double m = u1 < s.first_share ? 1.0 : 0.0;
+  const double t = m * (u1 * s.first_scale) + (1.0 - m) * ((u1 - s.first_share) * s.second_scale);
   const double r = std::sqrt(std::clamp(t, 0.0, 0x1.fffffffffffffp-1));
-  const Vec3& b = first ? s.b : s.c;
-  const Vec3& c = first ? s.c : s.d;
+  const Vec3 b = s.b * m + s.c * (1.0 - m);
+  const Vec3 c = s.c * m + s.d * (1.0 - m);
   return s.a * (1.0 - r) + b * (r * (1.0 - u2)) + c * (r * u2);
 }
 
 ElementRays::Ray ElementRays::ray(size_t source, const double* u) const {
   const Source& s = sources_[source];
-  return {origin(s, source, u[1], u[2]), cosine_direction(s.normal, u[3], u[4]), s.polygon};
+  const Vec3 local = cosine_direction_local(u[3], u[4]);
+  return {origin(s, source, u[1], u[2]),
+          s.tangent * local.x + s.bitangent * local.y + s.normal * local.z, s.polygon};
 }
 
 uint32_t ElementRays::cast(const Ray& ray) const {
@@ -74,6 +83,21 @@ uint32_t ElementRays::cast(const Ray& ray) const {
     return glm::dot(ray.direction, met.normal) < 0.0 ? hit.element : kMiss;
   }
   return kMiss;
+}
+
+void ElementRays::cast(std::span<const Ray> rays, uint32_t* out) const {
+  for (size_t k = 0; k < rays.size(); ++k) {
+    const RayHit hit = embree_->intersect(rays[k].origin, rays[k].direction, t_near_, 1e30);
+    out[k] = hit.hit ? hit.element : kMiss;
+  }
+  for (size_t k = 0; k < rays.size(); ++k) {
+    if (out[k] == kMiss) continue;
+    const Target& met = targets_[out[k]];
+    if (met.polygon == rays[k].polygon)
+      out[k] = cast(rays[k]);  // rare: the single-ray path goes on past the own polygon
+    else if (!(glm::dot(rays[k].direction, met.normal) < 0.0))
+      out[k] = kMiss;  // a back face absorbs
+  }
 }
 
 ElementDistribution::ElementDistribution(std::span<const double> weights)

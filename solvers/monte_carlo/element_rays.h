@@ -37,6 +37,13 @@ class ElementRays {
   };
   Ray ray(size_t source, const double* u) const;
   uint32_t cast(const Ray& ray) const;
+  // out[k] = cast(rays[k]) for every k, in two passes: all of Embree's closest hits first, then
+  // the checks of the elements met (own polygon, front face). The checks' reads of the hit
+  // elements' records are then independent of one another and overlap; after each hit in turn
+  // they stalled the next ray behind a cache miss (bench_monte_carlo).
+  void cast(std::span<const Ray> rays, uint32_t* out) const;
+  // A hint that ray(source, ...) comes soon: its record is fetched meanwhile.
+  void prefetch(size_t source) const { __builtin_prefetch(&sources_[source]); }
 
  private:
   // What a ray from an element needs, in one place: a ray's origin and direction then cost one
@@ -44,9 +51,13 @@ class ElementRays {
   // corners), which on random elements were a third of a ray's time beside Embree
   // (bench_monte_carlo). A triangle or quad as the fan (a, b, c) + (a, c, d) and the first
   // triangle's share of the area; other polygons (unsplit n-gons) go through point_on_element.
+  // The frame of the cosine directions is kept too (frame_about: a division per ray otherwise),
+  // and the two triangles' shares as the factors that rescale u1 within each.
   struct Source {
-    Vec3 a, b, c, d, normal;
-    double first_share = 1.0;
+    Vec3 a, b, c, d, normal, tangent, bitangent;
+    double first_share = 1.0;   // of the area, the first triangle's
+    double first_scale = 1.0;   // 1 / first_share
+    double second_scale = 0.0;  // 1 / (1 - first_share), 0 without a second triangle
     uint32_t polygon = 0;
     bool fan = false;  // false: an n-gon, sampled through point_on_element
   };

@@ -6,7 +6,6 @@
 #include <boost/random/sobol.hpp>
 #include <cmath>
 #include <glm/geometric.hpp>
-#include <numbers>
 
 #include "core/random.h"
 
@@ -96,16 +95,9 @@ Vec3 point_on_element(const Mesh& mesh, size_t element, double u1, double u2) {
 }
 
 Vec3 cosine_direction(const Vec3& n, double u1, double u2) {
-  // An orthonormal frame about n (Duff et al. 2017, branchless).
-  const double sign = std::copysign(1.0, n.z);
-  const double p = -1.0 / (sign + n.z);
-  const double q = n.x * n.y * p;
-  const Vec3 t(1.0 + sign * n.x * n.x * p, sign * q, -sign * n.x);
-  const Vec3 b(q, sign + n.y * n.y * p, -n.y);
-  const double r = std::sqrt(u1);
-  const double phi = 2.0 * std::numbers::pi * u2;
-  const double z = std::sqrt(std::max(0.0, 1.0 - u1));
-  return t * (r * std::cos(phi)) + b * (r * std::sin(phi)) + n * z;
+  const Frame f = frame_about(n);
+  const Vec3 d = cosine_direction_local(u1, u2);
+  return f.t * d.x + f.b * d.y + n * d.z;
 }
 
 std::unique_ptr<UniformStream> make_pseudo_stream(uint64_t seed) {

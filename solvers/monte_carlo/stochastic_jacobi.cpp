@@ -243,11 +243,13 @@ class StochasticJacobiSolver final : public Solver {
       landing_rays_ += cast;
       charge(cast);
     }
-    Radiosity source = B_;
+    // Into buffers kept from step to step (fresh ones cost page faults every step).
+    Radiosity& source = source_;
+    Radiosity& deposit = deposit_;
+    source = B_;
     if (control)
       for (int c = 0; c < channels; ++c)
         for (double& b : source.channel(c)) b -= beta_[c];
-    Radiosity deposit;
     const uint64_t cast =
         propagation_->propagate(source, uint64_t(o_.rays), *stream_, &block_, deposit);
     rays_ += cast;
@@ -273,6 +275,7 @@ class StochasticJacobiSolver final : public Solver {
   std::unique_ptr<UniformStream> stream_, landing_stream_;
   uint64_t block_ = 0, landing_block_ = 0;
   Radiosity B_, unshot_, sum_, solution_;
+  Radiosity source_, deposit_;  // regular_step's buffers
   std::vector<double> landing_;
   double beta_[3] = {0.0, 0.0, 0.0};
   long long incremental_steps_ = 0, regular_steps_ = 0;
