@@ -228,8 +228,14 @@ def main(argv):
                                metrics, axes)
         for metric in metrics:
             for x in axes:
+                # A run that never moves along x (no form-factor rows: the matrix-free Monte
+                # Carlo solvers and hierarchical) would sit at x = 0 as a vertical line: it is
+                # left out of that plot, and a plot no run moves along is not written.
+                moving = [(run_id, data) for run_id, data in runs if (data[x] > 0).any()]
+                if not moving:
+                    continue
                 stem = os.path.join(plots, f"{safe}_{metric}_vs_{'rows' if x == 'ff_rows' else x}")
-                plot_metric(runs, metric, x, title, stem, formats)
+                plot_metric(moving, metric, x, title, stem, formats)
                 written.append(stem)
         channels = scene_rows[scene_rows["channel"].isin(["r", "g", "b"])]
         if not channels.empty:
