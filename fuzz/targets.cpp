@@ -29,7 +29,7 @@ void load_and_mesh(const std::filesystem::path& path) {
     return;  // a refusal with a message: the expected outcome for most mutated inputs
   }
   const AreaAccount& area = loaded.report.area;
-  if (!(std::abs(area.unaccounted()) <= kAreaTolerance * area.read))
+  if (!area.balanced())
     throw std::logic_error("area account does not balance: " + std::to_string(area.unaccounted()) +
                            " of " + std::to_string(area.read) + " m^2 read is unaccounted for");
   try {

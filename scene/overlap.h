@@ -47,6 +47,16 @@ inline constexpr double kCoincidentTolerance = 1e-5;
 // 3e-12 m, its modelled contacts 3e-9 m to 1e-4 m apart, in a 19 m scene).
 inline constexpr double kContactGap = 1e-11;
 
+// A piece the repair cuts off below this fraction of its polygon's area is a rounding sliver and
+// dropped (its area counted as removed): 1e-9 is far below any overlap a modeller meant and far
+// above the rounding of a cut (~1e-16 of the polygon's size squared).
+inline constexpr double kSliverFraction = 1e-9;
+
+// The most convex pieces the repair cuts one polygon into before it refuses the scene
+// (InputError naming the polygon): the repair's cost grows with the pieces times the polygons
+// overlapping it. Every RenderPark scene loads far below it (tests/scene/readers).
+inline constexpr size_t kMaxRepairPieces = 4096;
+
 struct OverlapReport {
   std::vector<std::string> warnings;
   int same_facing = 0;        // coincident same-facing overlapping pairs found

@@ -3,7 +3,7 @@
 #include <CGAL/Constrained_Delaunay_triangulation_2.h>
 #include <CGAL/Constrained_triangulation_face_base_2.h>
 #include <CGAL/Constrained_triangulation_plus_2.h>
-#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Exact_predicates_exact_constructions_kernel.h>
 #include <CGAL/Triangulation_face_base_with_info_2.h>
 #include <CGAL/Triangulation_vertex_base_with_info_2.h>
 
@@ -23,14 +23,19 @@ struct FaceInfo {
   int inside = -1;  // even-odd parity; -1 until the flood fill reaches the face
 };
 
-using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Kernel = CGAL::Exact_predicates_exact_constructions_kernel;
 using VertexBase = CGAL::Triangulation_vertex_base_with_info_2<CornerInfo, Kernel>;
 using FaceBase = CGAL::Constrained_triangulation_face_base_2<
     Kernel, CGAL::Triangulation_face_base_with_info_2<FaceInfo, Kernel>>;
 using Tds = CGAL::Triangulation_data_structure_2<VertexBase, FaceBase>;
-// Exact_predicates_tag: edges that touch or overlap (a seam, a corner on another edge) are
-// split where they meet, with the meeting point computed in double.
-using Cdt = CGAL::Constrained_Delaunay_triangulation_2<Kernel, Tds, CGAL::Exact_predicates_tag>;
+// Exact constructions and Exact_intersections_tag: edges that touch, overlap or cross (a seam,
+// a corner on another edge, a non-planar face whose projection crosses itself) are split where
+// they meet at the exact meeting point. With Exact_predicates_tag (meeting points rounded to
+// double) the constraint hierarchy of _plus_ below lost pieces of edges on such faces, and
+// number_of_enclosing_constraints dereferenced a null list: 13 fuzz findings
+// (fuzz/corpus/obj/finding_cgal_*, CGAL issues 2999, 4405, 5080 report the same). The exact
+// kernel costs little here: a face has at most kMaxPolygonCorners corners.
+using Cdt = CGAL::Constrained_Delaunay_triangulation_2<Kernel, Tds, CGAL::Exact_intersections_tag>;
 // _plus_ remembers which input edges cover each piece of an edge: the even-odd count below.
 using Triangulation = CGAL::Constrained_triangulation_plus_2<Cdt>;
 
@@ -85,7 +90,7 @@ std::vector<std::vector<Vec3>> triangulate_polygon(const std::vector<Vec3>& poly
 
   auto position = [&](Triangulation::Vertex_handle v) {
     if (v->info().index >= 0) return polygon[size_t(v->info().index)];
-    return origin + v->point().x() * u + v->point().y() * w;
+    return origin + CGAL::to_double(v->point().x()) * u + CGAL::to_double(v->point().y()) * w;
   };
   std::vector<std::vector<Vec3>> triangles;
   for (const auto face : cdt.finite_face_handles())

@@ -130,8 +130,14 @@ void keep_pieces(const Polygon& polygon, const std::vector<Vec3>& v, double read
   std::erase_if(pieces, [](const std::vector<Vec3>& piece) { return degenerate(piece); });
   const Vec3 normal = geometry::unit_normal(v);
   double projected = 0.0, surface = 0.0;
+  // Newell's sum takes products of coordinates, so it rounds by ~1e-16 of their square: taken
+  // about the polygon's first corner, that is the square of the polygon's size, not of its
+  // distance from the origin (1e24 m^2 at 1e12 m).
+  std::vector<Vec3> shifted;
   for (const auto& piece : pieces) {
-    projected += 0.5 * glm::dot(geometry::newell_vector(piece), normal);
+    shifted.clear();
+    for (const Vec3& p : piece) shifted.push_back(p - v[0]);
+    projected += 0.5 * glm::dot(geometry::newell_vector(shifted), normal);
     surface += geometry::area(piece);
   }
   report.area.kept_before_overlaps += surface;
@@ -204,7 +210,7 @@ ValidationReport validate_scene(Scene& scene, bool keep_overlaps) {
   }
   report.area.overlaps_removed = report.overlaps.removed_area;
   for (const Polygon& p : scene.polygons) report.area.kept += geometry::area(p.vertices);
-  if (std::abs(report.area.unaccounted()) > kAreaTolerance * report.area.read)
+  if (!report.area.balanced())
     report.warnings.push_back(
         scene.name + ": " + text::format_double(report.area.unaccounted()) + " m^2 of the " +
         text::format_double(report.area.read) + " m^2 read is lost without a warning naming it (" +

@@ -15,6 +15,7 @@
 //   coordinates beyond kMaxCoordinate, emission beyond kMaxEmission: InputError.
 #pragma once
 
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -35,13 +36,16 @@ inline constexpr double kMaxCoordinate = 1e12;
 inline constexpr double kMaxEmission = 1e30;
 
 // Relative difference between two areas that is rounding, not geometry: a split's triangles
-// against the polygon, the scene's area account below. Sums of ~10^5 doubles err by ~1e-12.
+// against the polygon, the scene's area account below. A sum of N doubles errs by at most
+// N x 1.1e-16 of the sum of their magnitudes (recursive summation, to first order; Higham,
+// Accuracy and Stability of Numerical Algorithms, 4.2): 1e-9 covers N up to ~9e6 areas, above
+// the 5e6 polygons radlab reads at most (core/limits.h).
 inline constexpr double kAreaTolerance = 1e-9;
 
 // Where the area read went (m^2), checked on every load: what was read equals what is kept plus
 // what the warnings name as dropped, lost in a split or removed by the overlap repair, minus the
 // surplus of non-planar polygons' triangles over their projected (Newell) area. `unaccounted()`
-// beyond kAreaTolerance x `read` is a warning (a defect of the loader, not of the scene).
+// beyond `rounding()` is a warning (a defect of the loader, not of the scene).
 struct AreaAccount {
   double read = 0.0;                  // the readers' polygons, Newell area
   double dropped = 0.0;               // degenerate polygons dropped (each named)
@@ -53,6 +57,17 @@ struct AreaAccount {
   double unaccounted() const {
     return read - dropped - split_lost + non_planar_surplus - overlaps_removed - kept;
   }
+  // What rounding alone can leave unaccounted: kAreaTolerance of the magnitudes the account
+  // adds up, not of `read`. The terms can dwarf what was read and cancel: a polygon far off its
+  // plane has triangles of 1e21 m^2 over a projection of 1e11 m^2, so the surplus and `kept`
+  // both carry 1e21 m^2 and their difference rounds by its last bit, 131072 m^2, 4e-8 of the
+  // 3e12 m^2 read (three fuzz findings, docs/reliability.md). For a planar scene the magnitudes
+  // are read + kept = 2 x read, as before.
+  double rounding() const {
+    return kAreaTolerance *
+           (read + dropped + std::abs(split_lost) + non_planar_surplus + overlaps_removed + kept);
+  }
+  bool balanced() const { return std::abs(unaccounted()) <= rounding(); }
 };
 
 struct ValidationReport {

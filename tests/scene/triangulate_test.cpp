@@ -113,5 +113,22 @@ TEST(Validation, AreaASplitCannotCoverIsNamedWithTheArea) {
   EXPECT_NEAR(report.area.unaccounted(), 0.0, 1e-12);
 }
 
+// A non-planar face from a fuzzed OBJ (fuzz/corpus/obj/finding_cgal_3b06dc3b), one corner 2.6e6 m
+// out and others visited three times: in its best plane its edges overlap and cross. With
+// inexact intersections CGAL's constraint hierarchy lost track of a piece of an edge and
+// number_of_enclosing_constraints dereferenced a null list (UBSan; a crash without it). Exact
+// constructions keep every piece: the triangles exist, have finite corners and the even-odd
+// region they cover is at most the area the edges span.
+TEST(Triangulate, OverlappingAndCrossingEdgesOfANonPlanarFace) {
+  const std::vector<Vec3> face = {{0, 2621474, -3}, {0, 0, 1}, {1, 1, 1},  {1, 0, 0}, {0, 0, 1},
+                                  {0, 1, 0},        {5, 1, 0}, {0, 26, 4}, {1, 1, 1}, {0, 0, 1},
+                                  {0, 1, 0},        {5, 1, 0}, {0, 26, 4}, {1, 1, 1}, {0, 0, 1}};
+  const auto triangles = triangulate_polygon(face);
+  ASSERT_FALSE(triangles.empty());
+  for (const auto& t : triangles)
+    for (const Vec3& p : t)
+      EXPECT_TRUE(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z));
+}
+
 }  // namespace
 }  // namespace radlab
