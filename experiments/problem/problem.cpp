@@ -481,6 +481,16 @@ std::unique_ptr<Problem> prepare_matrix_block(const ProblemSpec& spec, size_t in
   MatrixCacheKey key;
   auto problem = prepare_for_blocks(spec, cache, key);
   const MatrixBlock block = matrix_block(problem->mesh.size(), index, count);
+  // The limits hold for the block's own work and memory (a merge is checked as a whole
+  // preparation, when prepare_problem loads it).
+  const size_t rows = block.end - block.first;
+  const PreparationEstimate estimate =
+      estimate_matrix_block(spec, problem->mesh.size(), rows, preparation_threads());
+  const std::string what = problem->scene().name + ": " + block.label() + " of the form-factor " +
+                           "matrix of " + std::to_string(problem->mesh.size()) + " elements";
+  check_limit("memory_gb", estimate.total_bytes(), what + " (" + estimate.describe() + ")");
+  check_limit("pairs", double(rows) * double(problem->mesh.size()),
+              what + " (" + spec.ff_method + ")");
   Progress progress("form factors (" + spec.ff_method + ", " + block.label() + ")", "rows",
                     double(block.end - block.first));
   build_matrix_block(*problem->method, cache, key, problem->mesh.size(), block, problem->build,

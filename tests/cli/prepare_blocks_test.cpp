@@ -41,9 +41,11 @@ std::string experiment(const TempDir& dir, const std::string& method,
                        method + "\"\n" + settings + "\n[budget]\nrows = 100\n");
 }
 
-Result prepare(const std::string& cache, const std::string& arguments) {
+Result prepare(const std::string& cache, const std::string& arguments,
+               const std::string& global = "") {
   return radlab::testing::run_command("RADLAB_CACHE_DIR=" + cache + " timeout 300 " +
-                                      std::string(RADLAB_BINARY) + " -q prepare " + arguments);
+                                      std::string(RADLAB_BINARY) + " -q " + global + " prepare " +
+                                      arguments);
 }
 
 std::string bytes_of(const fs::path& file) {
@@ -168,6 +170,18 @@ TEST(PrepareBlocks, BlockIndexOrCountOutOfRangeIsAUsageError) {
   EXPECT_OUTPUT_HAS(many, "at most 80 blocks");
   EXPECT_TRUE(files_ending(cache, ".ffb").empty());
   EXPECT_TRUE(files_ending(cache, ".ffm").empty());
+}
+
+// A block is held to the limits by its own work: rows 0 to 25 of 80 elements are 2,080 pairs.
+TEST(PrepareBlocks, ABlockIsHeldToTheLimitsByItsOwnPairs) {
+  TempDir dir;
+  const std::string exp = experiment(dir, "raycast"), cache = dir.file("cache");
+  const Result refused = prepare(cache, exp + " --problem 0 --block 1/3", "--limits pairs=2000");
+  EXPECT_EQ(refused.code, 3) << refused.output;
+  EXPECT_OUTPUT_HAS(refused, "block 1/3 (rows 0 to 25) of the form-factor matrix of 80 elements");
+  EXPECT_OUTPUT_HAS(refused, "2080 pairs, above the limit of 2000 pairs");
+  EXPECT_TRUE(files_ending(cache, ".ffb").empty());
+  EXPECT_EQ(prepare(cache, exp + " --problem 0 --block 1/3", "--limits pairs=2100").code, 0);
 }
 
 TEST(PrepareBlocks, AMethodThatIntegratesEachPairOnceIsNotBuiltInBlocks) {
