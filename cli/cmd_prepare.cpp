@@ -9,6 +9,13 @@
 // so a shard afterwards only loads. The workflow (workflow/Snakefile) runs one `prepare --problem
 // K` per problem, then the shards.
 //
+// Blocked builds (formfactor/matrix/matrix_blocks.h; issue 33): `--problem K --block I/B` computes
+// block I of B of problem K's form-factor matrix (its rows split in B) into the cache as a block
+// file, independent of the other blocks (a Slurm node each); `--merge-blocks B` checks all B
+// (present, this matrix's, this split's, intact) and merges them into the cached matrix, the
+// one-process build's bits, then prepares as usual (the reference). `--plan --blocks B` adds each
+// block's and the merge's estimates. The workflow runs them with config blocks=B.
+//
 // --plan builds no matrix: it loads each scene and meshes it, and prints as JSON the problems
 // and runs with rough estimates of memory and time (below) that the workflow turns into
 // scheduler resources. --record FILE writes, once every selected problem is prepared, a JSON
@@ -48,11 +55,18 @@
 #include "experiments/problem/preparation_estimate.h"
 #include "experiments/sweep/experiment_spec.h"
 #include "experiments/sweep/sweep.h"
+#include "formfactor/matrix/matrix_blocks.h"
 #include "formfactor/matrix/matrix_cache.h"
 #include "scene/scene_loader.h"
 
 namespace radlab::cli {
 namespace {
+
+// One block of a blocked build, or the merge (index 0), estimated.
+struct BlockEstimate {
+  size_t index = 0, first_row = 0, end_row = 0;
+  double memory_bytes = 0, seconds = 0;
+};
 
 struct ProblemEstimate {
   size_t elements = 0;
@@ -60,20 +74,56 @@ struct ProblemEstimate {
   double matrix_bytes = 0, memory_bytes = 0, prepare_seconds = 0;
   std::string error;                     // the scene could not be loaded or meshed
   std::vector<std::string> scene_files;  // every file the scene reads (the workflow's inputs)
+  // --blocks B: the blocks (min(B, elements) of them; none when the problem is not built in
+  // blocks, `blocks_note` says why) and the merge.
+  std::vector<BlockEstimate> blocks;
+  BlockEstimate merge;
+  std::string blocks_note;
 };
 
-ProblemEstimate estimate_problem(const PlannedProblem& planned) {
+// The blocks of a problem's matrix and their merge (experiments/problem/preparation_estimate.h).
+void estimate_blocks(const PlannedProblem& planned, const FormFactorMethod& method,
+                     size_t requested, ProblemEstimate& e) {
+  if (planned.spec.patches.two_level()) {
+    e.blocks_note = "two levels: no n x n matrix";
+    return;
+  }
+  if (!method.builds_in_row_blocks()) {
+    e.blocks_note = "form factors '" + planned.spec.ff_method + "' are not built in blocks";
+    return;
+  }
+  const size_t count = std::min(requested, e.elements);
+  for (size_t k = 1; k <= count; ++k) {
+    const MatrixBlock block = matrix_block(e.elements, k, count);
+    const PreparationEstimate b = estimate_matrix_block(
+        planned.spec, e.elements, block.end - block.first, preparation_threads());
+    e.blocks.push_back({k, block.first, block.end, b.total_bytes(), b.seconds});
+  }
+  const PreparationEstimate m =
+      estimate_block_merge(planned.spec, e.elements, preparation_threads());
+  e.merge = {0, 0, e.elements, m.total_bytes(), m.seconds};
+}
+
+ProblemEstimate estimate_problem(const PlannedProblem& planned, size_t blocks) {
   ProblemEstimate e;
   double patches = 0;
   e.memory_bytes = 256e6;  // the program alone; a problem that fails to load needs no more
   try {
-    LoadedScene loaded = load_scene(planned.spec.scene);
-    for (const SourceFile& f : loaded.scene.sources) e.scene_files.push_back(f.path);
-    const Mesh mesh = build_mesh(loaded.scene, planned.spec.mesh);
-    e.elements = mesh.size();
-    e.channels = loaded.scene.is_grey() ? 1 : 3;
+    // With blocks, the method too (whether it builds in blocks).
+    std::unique_ptr<Problem> problem;
+    LoadedScene loaded;
+    Mesh mesh;
+    if (blocks > 0) problem = prepare_method(planned.spec);
+    if (!problem) loaded = load_scene(planned.spec.scene);
+    const Scene& scene = problem ? problem->scene() : loaded.scene;
+    if (!problem) mesh = build_mesh(loaded.scene, planned.spec.mesh);
+    const Mesh& meshed = problem ? problem->mesh : mesh;
+    for (const SourceFile& f : scene.sources) e.scene_files.push_back(f.path);
+    e.elements = meshed.size();
+    e.channels = scene.is_grey() ? 1 : 3;
     if (planned.spec.patches.two_level())
-      patches = double(make_patches(loaded.scene, mesh, planned.spec.patches).size());
+      patches = double(make_patches(scene, meshed, planned.spec.patches).size());
+    if (problem) estimate_blocks(planned, *problem->method, blocks, e);
   } catch (const Error& error) {
     e.error = error.what();
     return e;
@@ -115,12 +165,12 @@ double estimate_run_seconds(const ExperimentSpec& spec, const ProblemEstimate& p
   return seconds + (b.seconds ? *b.seconds : 0.0);
 }
 
-void print_plan(const ExperimentSpec& spec, const SweepPlan& plan) {
+void print_plan(const ExperimentSpec& spec, const SweepPlan& plan, size_t blocks) {
   std::vector<ProblemEstimate> estimates;
   for (size_t i = 0; i < plan.problems.size(); ++i) {
     log::info("[" + std::to_string(i + 1) + "/" + std::to_string(plan.problems.size()) +
               "] meshing " + plan.problems[i].label);
-    estimates.push_back(estimate_problem(plan.problems[i]));
+    estimates.push_back(estimate_problem(plan.problems[i], blocks));
   }
   JsonWriter json;
   json.begin_object();
@@ -140,6 +190,26 @@ void print_plan(const ExperimentSpec& spec, const SweepPlan& plan) {
     json.field("memory_mb", std::ceil(e.memory_bytes / 1e6));
     json.field("prepare_seconds", e.prepare_seconds);
     json.field("scene_files", e.scene_files);
+    if (blocks > 0) {
+      json.key("blocks").begin_array();
+      for (const BlockEstimate& b : e.blocks) {
+        json.begin_object();
+        json.field("block", b.index);
+        json.field("first_row", b.first_row);
+        json.field("end_row", b.end_row);
+        json.field("memory_mb", std::ceil(b.memory_bytes / 1e6));
+        json.field("seconds", b.seconds);
+        json.end_object();
+      }
+      json.end_array();
+      if (!e.blocks.empty()) {
+        json.key("merge").begin_object();
+        json.field("memory_mb", std::ceil(e.merge.memory_bytes / 1e6));
+        json.field("seconds", e.merge.seconds);
+        json.end_object();
+      }
+      if (!e.blocks_note.empty()) json.field("blocks_note", e.blocks_note);
+    }
     if (!e.error.empty()) json.field("error", e.error);
     json.end_object();
   }
@@ -213,6 +283,38 @@ void write_record(const std::string& path, const ExperimentSpec& spec,
   write_atomically(path, json.str() + "\n");
 }
 
+// `--block K/B`: block K of B of problem `index`'s matrix into the cache; with `record`, a JSON
+// record of it (the workflow's block job output), written only once the block is stored.
+void prepare_block(const ExperimentSpec& spec, const SweepPlan& plan, size_t index, size_t block,
+                   size_t count, const std::string& record) {
+  const PlannedProblem& planned = plan.problems[index];
+  log::info("problem " + std::to_string(index) + ": " + planned.label + ", block " +
+            std::to_string(block) + "/" + std::to_string(count));
+  const auto start = std::chrono::steady_clock::now();
+  const std::unique_ptr<Problem> problem = prepare_matrix_block(planned.spec, block, count);
+  const MatrixBlock rows = matrix_block(problem->mesh.size(), block, count);
+  std::printf("%s of problem %zu in %s\n", rows.label().c_str(), index,
+              problem->build.cache_file.c_str());
+  if (record.empty()) return;
+  JsonWriter json;
+  json.begin_object();
+  json.field("experiment", spec.path);
+  json.field("name", spec.name);
+  json.field("problem", index);
+  json.field("label", planned.label);
+  json.field("elements", problem->mesh.size());
+  json.field("block", block);
+  json.field("blocks", count);
+  json.field("first_row", rows.first);
+  json.field("end_row", rows.end);
+  json.field("block_file", problem->build.cache_file);
+  json.field("build", problem->build.summary());
+  json.field("seconds",
+             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  json.end_object();
+  write_atomically(record, json.str() + "\n");
+}
+
 }  // namespace
 
 void add_prepare_command(CLI::App& app) {
@@ -221,8 +323,9 @@ void add_prepare_command(CLI::App& app) {
       "build an experiment's form-factor matrices and certified references into the cache, once "
       "per scene/mesh/method, before its runs (or shards) start");
   struct Options {
-    std::string file, record;
+    std::string file, record, block;
     std::vector<size_t> problems;
+    size_t merge_blocks = 0, blocks = 0;
     bool plan = false;
   };
   auto o = std::make_shared<Options>();
@@ -235,11 +338,32 @@ void add_prepare_command(CLI::App& app) {
   command->add_flag("--plan", o->plan,
                     "build nothing: print the problems and runs as JSON with estimates of memory "
                     "and time (for a scheduler)");
+  command->add_option("--block", o->block,
+                      "compute only block K of B of the problem's form-factor matrix (K/B, rows "
+                      "split in B blocks) into the cache as a block file; needs one problem "
+                      "(--problem K); merge with --merge-blocks B");
+  command
+      ->add_option("--merge-blocks", o->merge_blocks,
+                   "check the B blocks of each problem's matrix (--block K/B) and merge them "
+                   "into the cached matrix, then prepare as usual (the reference)")
+      ->check(CLI::PositiveNumber);
+  command
+      ->add_option("--blocks", o->blocks,
+                   "with --plan: estimate each of B blocks of every problem's matrix")
+      ->check(CLI::PositiveNumber);
   command->callback([o]() {
+    if (!o->block.empty() && o->merge_blocks > 0)
+      throw UsageError("--block and --merge-blocks: one at a time (blocks first, then the merge)");
+    if ((!o->block.empty() || o->merge_blocks > 0) && o->plan)
+      throw UsageError("--plan builds nothing: with blocks, use --plan --blocks B");
+    if (o->blocks > 0 && !o->plan) throw UsageError("--blocks B goes with --plan");
+    // Checked before the experiment is read: a malformed K/B is a usage error whatever the file.
+    std::pair<size_t, size_t> block{0, 0};  // K, B; none when B is 0
+    if (!o->block.empty()) block = parse_block_option(o->block, "--block");
     const ExperimentSpec spec = read_experiment(o->file);
     const SweepPlan plan = plan_sweep(spec);
     if (o->plan) {
-      print_plan(spec, plan);
+      print_plan(spec, plan, o->blocks);
       return;
     }
     std::vector<size_t> selected = o->problems;
@@ -251,6 +375,19 @@ void add_prepare_command(CLI::App& app) {
                          std::to_string(plan.problems.size()) + " problems (0 to " +
                          std::to_string(plan.problems.size() - 1) + ")");
     log::info("cache: " + default_cache_dir().string());
+    if (block.second > 0) {
+      if (selected.size() != 1)
+        throw UsageError("--block " + o->block + ": one problem at a time (--problem K; " +
+                         spec.path + " has " + std::to_string(plan.problems.size()) + ")");
+      prepare_block(spec, plan, selected[0], block.first, block.second, o->record);
+      return;
+    }
+    if (o->merge_blocks > 0)
+      for (size_t k : selected) {
+        log::info("problem " + std::to_string(k) + ": merging " + std::to_string(o->merge_blocks) +
+                  " blocks");
+        merge_matrix_blocks(plan.problems[k].spec, o->merge_blocks);
+      }
 
     std::vector<Prepared> prepared;
     std::vector<RunFailure> failures;  // one per problem that could not be prepared

@@ -120,6 +120,20 @@ class FormFactorMethod {
     return true;
   }
 
+  // Blocked builds (formfactor/matrix/matrix_blocks.h): whether the matrix may be built as
+  // blocks of rows, each by an independent process, and merged. Not for a method that
+  // integrates each pair once (its rows share pair integrals: blocks of rows would integrate
+  // each pair twice) nor one with side files other than row side files (below).
+  virtual bool builds_in_row_blocks() const { return !integrates_pairs_once(); }
+  // Side files (save_side_files) whose payload is `arrays` arrays of n floats, one value per row
+  // in each (raycast's ".sigma", the hemicube's ".emitters"): the merge of a blocked build takes
+  // each row's values from the side file beside the block that computed the row.
+  struct RowSideFile {
+    std::string suffix;
+    size_t arrays = 0;
+  };
+  virtual std::vector<RowSideFile> row_side_files() const { return {}; }
+
   // The row from a point on element `element`'s surface (its plane and frame) other than its
   // centroid, out[j] = F from that point to j, elements in the point's plane left out; false
   // (and nothing done) when the method's rows are not taken at a point (it integrates over the

@@ -29,6 +29,9 @@ constexpr double kSecondsPerLuFlop = 1e-9;
 // bounds what was measured on 2 threads of a loaded machine), each element projected and clipped.
 constexpr double kSecondsPerHemicubePixel = 20e-9;
 constexpr double kSecondsPerHemicubeElement = 1e-6;
+// A merge of blocks reads the matrix's bytes from the cache folder: 100 MB/s bounds a shared
+// (NFS) file system from below; a local disk reads faster.
+constexpr double kBlockReadBytesPerSecond = 100e6;
 
 // The method's parameter `key`: from spec.ff_set (key=value), else the method's default.
 std::string method_parameter(const ProblemSpec& spec, const std::string& key) {
@@ -61,6 +64,27 @@ std::string PreparationEstimate::describe() const {
   return text + " + program, scene and mesh " + megabytes(program_bytes);
 }
 
+namespace {
+
+// The form-factor method's part for `rows` of the n rows: its working memory (into e) and the
+// seconds of those rows.
+double matrix_rows(const ProblemSpec& spec, double n, double rows, double threads,
+                   PreparationEstimate& e) {
+  if (spec.ff_method == "hemicube") {
+    // Per thread an item buffer and a depth buffer (4 + 4 bytes) over the 3R^2 pixels of the top
+    // face and four half faces; the delta form factors (8 bytes a pixel) twice, the method's
+    // copy and the process-wide cache it comes from.
+    const auto resolution = text::parse_int(method_parameter(spec, "resolution"));
+    const double R = resolution ? double(*resolution) : 0.0;
+    const double pixels = 3.0 * R * R;
+    e.method_bytes = pixels * (8.0 * threads + 16.0);
+    return rows * (pixels * kSecondsPerHemicubePixel + n * kSecondsPerHemicubeElement);
+  }
+  return rows * n * kSecondsPerPair;
+}
+
+}  // namespace
+
 PreparationEstimate estimate_preparation(const ProblemSpec& spec, size_t elements, int threads) {
   PreparationEstimate e;
   const double n = double(elements);
@@ -70,19 +94,28 @@ PreparationEstimate estimate_preparation(const ProblemSpec& spec, size_t element
   if (spec.precision == Precision::kFloat && spec.row_mode == RowMode::kCached)
     e.float_bytes = 4.0 * n * n;
   if (spec.need_reference) e.reference_bytes = 8.0 * n * n;
-  double matrix_seconds = n * n * kSecondsPerPair;
-  if (spec.ff_method == "hemicube") {
-    // Per thread an item buffer and a depth buffer (4 + 4 bytes) over the 3R^2 pixels of the top
-    // face and four half faces; the delta form factors (8 bytes a pixel) twice, the method's
-    // copy and the process-wide cache it comes from.
-    const auto resolution = text::parse_int(method_parameter(spec, "resolution"));
-    const double R = resolution ? double(*resolution) : 0.0;
-    const double pixels = 3.0 * R * R;
-    e.method_bytes = pixels * (8.0 * t + 16.0);
-    matrix_seconds = n * (pixels * kSecondsPerHemicubePixel + n * kSecondsPerHemicubeElement);
-  }
-  e.seconds = kStartSeconds + matrix_seconds +
+  e.matrix_seconds = matrix_rows(spec, n, n, t, e);
+  e.seconds = kStartSeconds + e.matrix_seconds +
               (spec.need_reference ? n * n * n / 3.0 * kSecondsPerLuFlop : 0.0);
+  return e;
+}
+
+PreparationEstimate estimate_matrix_block(const ProblemSpec& spec, size_t elements, size_t rows,
+                                          int threads) {
+  PreparationEstimate e;
+  const double n = double(elements);
+  e.program_bytes = kProgramBytes + kBytesPerElement * n;
+  e.matrix_bytes = 8.0 * double(rows) * n;
+  e.matrix_seconds = matrix_rows(spec, n, double(rows), double(std::max(threads, 1)), e);
+  e.seconds = kStartSeconds + e.matrix_seconds;
+  return e;
+}
+
+PreparationEstimate estimate_block_merge(const ProblemSpec& spec, size_t elements, int threads) {
+  PreparationEstimate e = estimate_preparation(spec, elements, threads);
+  e.seconds += e.matrix_bytes / kBlockReadBytesPerSecond - e.matrix_seconds;
+  e.matrix_seconds = 0;
+  e.method_bytes = 0;  // no rows computed
   return e;
 }
 

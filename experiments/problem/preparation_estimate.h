@@ -21,6 +21,7 @@ struct PreparationEstimate {
   double reference_bytes = 0;  // the certified reference's dense LU, factorised in place: 8n^2
   double method_bytes = 0;     // the method's working memory (hemicube: buffers and weights)
   double seconds = 0;          // starting, building the matrix and the reference (wall clock)
+  double matrix_seconds = 0;   // of which building the matrix (its rows)
 
   double total_bytes() const {
     return program_bytes + matrix_bytes + float_bytes + reference_bytes + method_bytes;
@@ -32,6 +33,14 @@ struct PreparationEstimate {
 // For a dense preparation of `spec` on `elements` elements (the matrix; the reference when
 // spec.need_reference). The method's parameters are spec.ff_set over the method's defaults.
 PreparationEstimate estimate_preparation(const ProblemSpec& spec, size_t elements, int threads);
+
+// Blocked builds (formfactor/matrix/matrix_blocks.h), by the same rates: one block of `rows` rows
+// (held in double, 8n bytes a row at most; the method's working memory; the program), and the
+// merge (everything estimate_preparation holds, the blocks read at 100 MB/s instead of the
+// matrix computed, then the reference).
+PreparationEstimate estimate_matrix_block(const ProblemSpec& spec, size_t elements, size_t rows,
+                                          int threads);
+PreparationEstimate estimate_block_merge(const ProblemSpec& spec, size_t elements, int threads);
 
 // The threads radlab's parallel loops use (--threads, else every core).
 int preparation_threads();

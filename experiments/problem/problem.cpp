@@ -10,6 +10,7 @@
 #include "experiments/problem/preparation_estimate.h"
 #include "experiments/problem/reference_cache.h"
 #include "experiments/problem/two_level_problem.h"
+#include "formfactor/matrix/matrix_blocks.h"
 #include "formfactor/matrix/matrix_cache.h"
 #include "formfactor/matrix/symmetric_build.h"
 #include "formfactor/registry.h"
@@ -448,7 +449,72 @@ constexpr Stages kOneLevel{matrix_stage, checks_stage, reference_stage, system_s
 constexpr Stages kTwoLevels{two_level_rows_stage, two_level_checks_stage, two_level_reference_stage,
                             two_level_system_stage};
 
+// The method's stages, then the cache and the key a blocked build works on.
+std::unique_ptr<Problem> prepare_for_blocks(const ProblemSpec& spec, MatrixCache& cache,
+                                            MatrixCacheKey& key) {
+  if (spec.patches.two_level())
+    throw UsageError("blocks: two-level problems have no n x n matrix to build in blocks");
+  if (!spec.use_cache) throw UsageError("blocks: a blocked build needs the cache (not --no-cache)");
+  auto problem = prepare_method(spec);
+  require_row_blocks(*problem->method, spec.ff_method);
+  Preparation p{*problem, spec};
+  open_cache(p);
+  cache = *p.cache;
+  key = p.key;
+  return problem;
+}
+
 }  // namespace
+
+std::unique_ptr<Problem> prepare_method(const ProblemSpec& spec) {
+  auto problem = std::make_unique<Problem>();
+  problem->spec = spec;
+  Preparation p{*problem, spec};
+  scene_stage(p);
+  mesh_stage(p);
+  method_stage(p);
+  return problem;
+}
+
+std::unique_ptr<Problem> prepare_matrix_block(const ProblemSpec& spec, size_t index, size_t count) {
+  MatrixCache cache{std::filesystem::path()};
+  MatrixCacheKey key;
+  auto problem = prepare_for_blocks(spec, cache, key);
+  const MatrixBlock block = matrix_block(problem->mesh.size(), index, count);
+  // The limits hold for the block's own work and memory (a merge is checked as a whole
+  // preparation, when prepare_problem loads it).
+  const size_t rows = block.end - block.first;
+  const PreparationEstimate estimate =
+      estimate_matrix_block(spec, problem->mesh.size(), rows, preparation_threads());
+  const std::string what = problem->scene().name + ": " + block.label() + " of the form-factor " +
+                           "matrix of " + std::to_string(problem->mesh.size()) + " elements";
+  check_limit("memory_gb", estimate.total_bytes(), what + " (" + estimate.describe() + ")");
+  check_limit("pairs", double(rows) * double(problem->mesh.size()),
+              what + " (" + spec.ff_method + ")");
+  Progress progress("form factors (" + spec.ff_method + ", " + block.label() + ")", "rows",
+                    double(block.end - block.first));
+  build_matrix_block(*problem->method, cache, key, problem->mesh.size(), block, problem->build,
+                     [&](size_t done, size_t) { progress.update(double(done)); });
+  progress.finish(std::to_string(problem->build.cost.rays) + " visibility rays");
+  problem->preparation.push_back("matrix block built");
+  log::info("form factors: " + block.label() + " in " + problem->build.cache_file + ": " +
+            problem->build.summary());
+  return problem;
+}
+
+void merge_matrix_blocks(const ProblemSpec& spec, size_t count) {
+  MatrixCache cache{std::filesystem::path()};
+  MatrixCacheKey key;
+  auto problem = prepare_for_blocks(spec, cache, key);
+  const std::unique_ptr<FileLock> lock = cache.lock(key);
+  const MergedMatrix merged =
+      merge_matrix_blocks(*problem->method, cache, key, problem->mesh.size(), count);
+  if (!store_merged_matrix(cache, key, merged))
+    throw InputError(cache.path(key).string() +
+                     ": cannot store the merged matrix (see the warning above)");
+  log::info("form factors: " + std::to_string(count) + " blocks merged into " +
+            cache.path(key).string());
+}
 
 std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
   auto problem = std::make_unique<Problem>();

@@ -87,4 +87,17 @@ struct Problem {
 // Loads, meshes, builds the matrix (with progress on stderr) and, if asked, the reference.
 std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec);
 
+// The first stages alone: the scene, its mesh and the form-factor method (nothing n x n).
+std::unique_ptr<Problem> prepare_method(const ProblemSpec& spec);
+
+// Blocked matrix builds (formfactor/matrix/matrix_blocks.h: `radlab prepare --block`, the
+// workflow's block jobs). prepare_matrix_block: the method's stages, then block `index` of
+// `count` of its matrix computed into the cache (problem->build is the block's, its cache_file
+// the block file). merge_matrix_blocks: the `count` blocks checked and merged into the cached
+// matrix under the matrix's lock; prepare_problem then loads it as any cached matrix. Both
+// refuse (UsageError) two-level problems, a spec without a cache and methods that are not built
+// in blocks.
+std::unique_ptr<Problem> prepare_matrix_block(const ProblemSpec& spec, size_t index, size_t count);
+void merge_matrix_blocks(const ProblemSpec& spec, size_t count);
+
 }  // namespace radlab

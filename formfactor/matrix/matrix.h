@@ -209,6 +209,14 @@ FormFactorMatrix build_matrix(const FormFactorMethod& method, size_t n, Precisio
                               Layout layout, BuildReport& report,
                               const std::function<void(size_t done, size_t total)>& progress = {});
 
+// Rows [first, end) of the same (one block of a blocked build, formfactor/matrix/matrix_blocks.h):
+// the other rows stay zero (a sparse matrix: empty). Each row the same bits as build_matrix's.
+// `progress` counts the rows of the range.
+FormFactorMatrix build_matrix_rows(
+    const FormFactorMethod& method, size_t n, size_t first, size_t end, Precision precision,
+    Layout layout, BuildReport& report,
+    const std::function<void(size_t done, size_t total)>& progress = {});
+
 // Makes A F exactly symmetric (reciprocity to rounding), so that gathering, shooting, conjugate
 // gradients and the reference solve one system: A_i F_ij and A_j F_ji become
 //

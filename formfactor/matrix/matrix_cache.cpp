@@ -192,14 +192,23 @@ std::string read_sparse(std::FILE* f, uint64_t payload_bytes, uint64_t expected_
 
 std::optional<FormFactorMatrix> MatrixCache::load(const MatrixCacheKey& key,
                                                   BuildReport* report) const {
+  std::string why;
+  std::optional<FormFactorMatrix> matrix = read(path(key), key, report, why);
+  if (!matrix && !why.empty()) folder_.distrust(path(key), why);
+  return matrix;
+}
+
+std::optional<FormFactorMatrix> MatrixCache::read(const std::filesystem::path& file,
+                                                  const CacheKey& key, BuildReport* report,
+                                                  std::string& why) {
   const auto start = std::chrono::steady_clock::now();
-  const std::filesystem::path file = path(key);
+  why.clear();
   std::error_code ec;
   if (!std::filesystem::exists(file, ec)) return std::nullopt;
   const uint64_t file_size = std::filesystem::file_size(file, ec);
 
-  auto reject = [&](const std::string& why) -> std::optional<FormFactorMatrix> {
-    folder_.distrust(file, why);
+  auto reject = [&](const std::string& reason) -> std::optional<FormFactorMatrix> {
+    why = reason;
     return std::nullopt;
   };
   if (ec) return reject("cannot read its size (" + ec.message() + ")");
@@ -269,6 +278,11 @@ std::optional<FormFactorMatrix> MatrixCache::load(const MatrixCacheKey& key,
 
 bool MatrixCache::store(const MatrixCacheKey& key, const FormFactorMatrix& matrix,
                         const BuildReport& report) const {
+  return write(path(key), key, matrix, report);
+}
+
+bool MatrixCache::write(const std::filesystem::path& file, const CacheKey& key,
+                        const FormFactorMatrix& matrix, const BuildReport& report) const {
   const size_t n = matrix.size();
   Header h{};
   std::memcpy(h.magic, kMagic, sizeof kMagic);
@@ -297,7 +311,7 @@ bool MatrixCache::store(const MatrixCacheKey& key, const FormFactorMatrix& matri
   h.build_threads = report.threads;
   h.header_checksum = header_checksum(h, key.text);
 
-  return folder_.write(path(key), [&](OutputFile& out) {
+  return folder_.write(file, [&](OutputFile& out) {
     out.write({reinterpret_cast<const char*>(&h), sizeof h});
     out.write(key.text);
     if (matrix.sparse())

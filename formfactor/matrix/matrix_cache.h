@@ -85,6 +85,14 @@ class MatrixCache {
   // deleted, and nullopt returned.
   std::optional<FormFactorMatrix> load(const MatrixCacheKey& key, BuildReport* report) const;
 
+  // The matrix in `file` (of this folder or any), verified against `key` as load() verifies:
+  // nullopt when the file is missing (`why` empty) or fails verification (`why` says how; the
+  // file is left alone). Blocked builds read their block files with it
+  // (formfactor/matrix/matrix_blocks.h).
+  static std::optional<FormFactorMatrix> read(const std::filesystem::path& file,
+                                              const CacheKey& key, BuildReport* report,
+                                              std::string& why);
+
   // Blocks while another process holds the lock of `key`, then holds it: take it after a miss,
   // load again (the other process may have stored it meanwhile), build, store, release.
   // nullptr when the folder cannot hold a lock file (then nothing is locked).
@@ -94,6 +102,13 @@ class MatrixCache {
   // warnings; returns success.
   bool store(const MatrixCacheKey& key, const FormFactorMatrix& matrix,
              const BuildReport& report) const;
+  // The same into `file` of this folder under `key` (a block file of a blocked build).
+  bool write(const std::filesystem::path& file, const CacheKey& key, const FormFactorMatrix& matrix,
+             const BuildReport& report) const;
+  // Takes `file`'s lock (the folder's per-key lock, for any key).
+  std::unique_ptr<FileLock> lock(const CacheKey& key, const std::string& what) const {
+    return folder_.lock(key, what);
+  }
 
  private:
   CacheFolder folder_;

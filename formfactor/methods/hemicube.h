@@ -96,6 +96,8 @@ class HemicubeFormFactors final : public FormFactorMethod {
   std::optional<EmitterSampling> row_emitter_sampling(size_t i) const override;
   void save_side_files(const std::string& matrix_file) const override;
   bool load_side_files(const std::string& matrix_file, size_t n) const override;
+  // Blocked builds: ".emitters" holds two arrays of one float per row.
+  std::vector<RowSideFile> row_side_files() const override { return {{".emitters", 2}}; }
   // row_at() with element's normal and frame (two levels' patch rows "centre").
   bool row_at_point(const Vec3& eye, size_t element, std::span<double> out,
                     RowCost& cost) const override {

@@ -91,6 +91,7 @@ class RaycastFormFactors final : public FormFactorMethod {
     load_row_sampling_errors(*this, matrix_file, n);
     return true;
   }
+  std::vector<RowSideFile> row_side_files() const override { return {{".sigma", 2}}; }
 
   // One pair, for tests and the catalogue comparisons.
   double pair(size_t i, size_t j, RowCost& cost) const;

@@ -396,5 +396,70 @@ TEST(Workflow, FailuresFailTheirJobWithRadlabsMessage) {
       << unprepared.output;
 }
 
+// The bytes of `file` from `offset` on.
+std::string bytes_from(const std::string& file, size_t offset) {
+  std::ifstream in(file, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string bytes = text.str();
+  return bytes.size() > offset ? bytes.substr(offset) : std::string();
+}
+
+// config blocks=3: the problem's matrix in 3 block jobs and a merge (the prepare job), whose
+// cached matrix has the one-process build's key and payload (byte 128 on: the header before it
+// records the build's time and ray count, tests/cli/prepare_blocks_test.cpp), and the sweep's
+// results are the unsharded run's; a lost block record reruns that block alone.
+TEST(Workflow, BlocksMergeIntoTheOneProcessMatrix) {
+  if (!have_snakemake())
+    GTEST_SKIP() << "snakemake is not installed (scripts/install-deps.sh installs Debian's "
+                    "snakemake): the workflow is not tested";
+  TempDir dir;
+  const std::string experiment = std::string(RADLAB_SOURCE_DIR) + "/workflow/test/blocks.toml";
+  const std::string cache = dir.file("cache"), out = dir.file("out");
+  const Result plan = shell(
+      snakemake(dir.file("w"), experiment, 2, out, cache, "blocks=3 --dry-run --printshellcmds"));
+  ASSERT_EQ(plan.code, 0) << plan.output;
+  const std::map<std::string, int> planned = job_counts(plan.output);
+  EXPECT_EQ(jobs(planned, "block"), 3) << plan.output;
+  EXPECT_EQ(jobs(planned, "prepare"), 1) << plan.output;
+  EXPECT_EQ(jobs(planned, "shard"), 2) << plan.output;
+  for (const char* command : {"--block 1/3", "--block 3/3", "--merge-blocks 3"})
+    EXPECT_NE(plan.output.find(command), std::string::npos) << command << "\n" << plan.output;
+
+  const Result run = shell(snakemake(dir.file("w"), experiment, 2, out, cache, "blocks=3"));
+  ASSERT_EQ(run.code, 0) << run.output;
+  std::map<std::string, int> cache_files;
+  std::string matrix;
+  for (const auto& entry : fs::directory_iterator(cache)) {
+    ++cache_files[entry.path().extension().string()];
+    if (entry.path().extension() == ".ffm") matrix = entry.path().string();
+  }
+  EXPECT_EQ(cache_files[".ffb"], 3);
+  EXPECT_EQ(cache_files[".ffm"], 1);
+
+  // The one-process build of the same matrix, and the unsharded sweep on it.
+  const std::string single = dir.file("single");
+  const Result one = shell("RADLAB_CACHE_DIR=" + single + " " + RADLAB_BINARY + " -q run " +
+                           experiment + " --out " + dir.file("unsharded"));
+  ASSERT_EQ(one.code, 0) << one.output;
+  const std::string single_matrix = single + "/" + fs::path(matrix).filename().string();
+  ASSERT_TRUE(fs::exists(single_matrix)) << single_matrix;
+  EXPECT_TRUE(bytes_from(matrix, 128) == bytes_from(single_matrix, 128))
+      << matrix << " holds another matrix than " << single_matrix;
+  const std::string merged = out + "/workflow_blocks/merged";
+  EXPECT_EQ(testing::without_columns(read_csv(merged + "/summary.csv"), summary_time_columns()),
+            testing::without_columns(read_csv(dir.file("unsharded") + "/summary.csv"),
+                                     summary_time_columns()));
+
+  // A lost block record: that block is redone alone, then the merge and what follows.
+  fs::remove(out + "/workflow_blocks/prepare/blocks/problem_0_block_2.json");
+  const Result redo =
+      shell(snakemake(dir.file("w"), experiment, 2, out, cache, "blocks=3 --dry-run"));
+  ASSERT_EQ(redo.code, 0) << redo.output;
+  const std::map<std::string, int> again = job_counts(redo.output);
+  EXPECT_EQ(jobs(again, "block"), 1) << redo.output;
+  EXPECT_EQ(jobs(again, "prepare"), 1) << redo.output;
+}
+
 }  // namespace
 }  // namespace radlab

@@ -83,5 +83,32 @@ rows = 10
   EXPECT_LE(peak_mb, planned_mb) << "the plan's memory_mb does not bound the measured peak";
 }
 
+// Blocked builds (formfactor/matrix/matrix_blocks.h) are estimated by the one estimate's rates:
+// the blocks' matrix seconds add up to the whole matrix's (every row in exactly one block), each
+// block holds its rows in double (8n bytes a row), and the merge holds what the whole
+// preparation holds while computing no rows.
+TEST(PreparationEstimate, BlocksAddUpToTheWholeMatrix) {
+  ProblemSpec spec;
+  spec.scene = "builtin:cornell";
+  spec.mesh.subdivisions = 4;
+  for (const char* method : {"raycast", "hemicube"}) {
+    SCOPED_TRACE(method);
+    spec.ff_method = method;
+    const PreparationEstimate whole = estimate_preparation(spec, 320, 2);
+    double sum = 0;
+    for (size_t rows : {106, 107, 107}) {
+      const PreparationEstimate block = estimate_matrix_block(spec, 320, rows, 2);
+      EXPECT_EQ(block.matrix_bytes, 8.0 * double(rows) * 320);
+      EXPECT_EQ(block.reference_bytes, 0.0);
+      EXPECT_EQ(block.method_bytes, whole.method_bytes);  // each process has the method's buffers
+      sum += block.matrix_seconds;
+    }
+    EXPECT_NEAR(sum, whole.matrix_seconds, 1e-12 * whole.matrix_seconds);  // rounding of 3 sums
+    const PreparationEstimate merge = estimate_block_merge(spec, 320, 2);
+    EXPECT_EQ(merge.total_bytes(), whole.total_bytes() - whole.method_bytes);
+    EXPECT_LT(merge.seconds, whole.seconds);  // reading 0.8 MB, not computing 102,400 pairs
+  }
+}
+
 }  // namespace
 }  // namespace radlab

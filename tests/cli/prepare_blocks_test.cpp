@@ -1,0 +1,272 @@
+// Blocked matrix builds through the command line (`radlab prepare --block K/B`, `--merge-blocks
+// B`, `--plan --blocks B`; formfactor/matrix/matrix_blocks.h): the merged cache file holds the
+// one-process build's bits (key, payload, side-file payloads) for 3 and 7 blocks, with raycast and
+// with the hemicube; every refusal (a block index or count out of range, a missing block, a block
+// of another split or scene, a corrupt block or side file, a method not built in blocks) exits 2
+// or 3 naming the block and leaves no matrix file in the cache.
+#include <gtest/gtest.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "tests/test_support.h"
+
+namespace radlab {
+namespace {
+
+namespace fs = std::filesystem;
+using Result = radlab::testing::CommandResult;
+using radlab::testing::TempDir;
+
+#define EXPECT_OUTPUT_HAS(result, text) \
+  EXPECT_NE((result).output.find(text), std::string::npos) << (result).output
+
+// builtin:cornell at --subdiv 2: 80 elements, an occluding box (raycast traces rays), emitters.
+std::string experiment(const TempDir& dir, const std::string& method,
+                       const std::string& scene = "builtin:cornell") {
+  const std::string settings = method == "raycast"    ? "rays = 4\n"
+                               : method == "hemicube" ? "resolution = 64\n"
+                                                      : "";
+  return dir.write(method + "_" + std::to_string(std::hash<std::string>{}(scene)) + ".toml",
+                   "name = \"blocks\"\nscenes = [\"" + scene +
+                       "\"]\nsubdiv = [2]\nsolvers = [\"gauss-seidel\"]\n\n[form_factors]\n"
+                       "method = \"" +
+                       method + "\"\n" + settings + "\n[budget]\nrows = 100\n");
+}
+
+Result prepare(const std::string& cache, const std::string& arguments,
+               const std::string& global = "") {
+  return radlab::testing::run_command("RADLAB_CACHE_DIR=" + cache + " timeout 300 " +
+                                      std::string(RADLAB_BINARY) + " -q " + global + " prepare " +
+                                      arguments);
+}
+
+std::string bytes_of(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// The files of `folder` whose names end with `suffix`.
+std::vector<fs::path> files_ending(const std::string& folder, const std::string& suffix) {
+  std::vector<fs::path> found;
+  if (!fs::exists(folder)) return found;
+  for (const auto& entry : fs::directory_iterator(folder)) {
+    const std::string name = entry.path().filename().string();
+    if (name.size() >= suffix.size() &&
+        name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0)
+      found.push_back(entry.path());
+  }
+  return found;
+}
+
+fs::path only_file(const std::string& folder, const std::string& suffix) {
+  const std::vector<fs::path> files = files_ending(folder, suffix);
+  EXPECT_EQ(files.size(), 1u) << folder << " *" << suffix;
+  return files.empty() ? fs::path() : files[0];
+}
+
+// The matrix cache header (formfactor/matrix/matrix_cache.cpp): bytes [0, 64) are the format,
+// n, precision, key hash, payload size and payload checksum; [64, 120) the build's record (rays
+// and pair counts, seconds, threads), which differs between any two builds (wall time) and
+// between a one-process build and blocks (raycast shares a pair's visibility between its two
+// rows only within a process); [120, 128) the header checksum over all of it. Everything from
+// byte 128 on is the key text and the payload.
+constexpr size_t kIdentityBytes = 64, kHeaderBytes = 128;
+
+void expect_same_matrix_file(const fs::path& merged, const fs::path& single) {
+  const std::string a = bytes_of(merged), b = bytes_of(single);
+  ASSERT_EQ(a.size(), b.size()) << merged << " vs " << single;
+  ASSERT_GT(a.size(), kHeaderBytes);
+  EXPECT_EQ(a.compare(0, kIdentityBytes, b, 0, kIdentityBytes), 0) << "header identity differs";
+  EXPECT_TRUE(a.compare(kHeaderBytes, std::string::npos, b, kHeaderBytes) == 0)
+      << "key text or payload differs";
+}
+
+// A side file (matrix_cache.h): magic 8, size 8, the matrix file's header and key text, the
+// payload, an 8-byte checksum. The payloads must be equal.
+void expect_same_side_payload(const fs::path& merged, const fs::path& single, size_t key_bytes) {
+  const std::string a = bytes_of(merged), b = bytes_of(single);
+  ASSERT_EQ(a.size(), b.size()) << merged;
+  const size_t start = 16 + kHeaderBytes + key_bytes;
+  ASSERT_GT(a.size(), start + 8);
+  EXPECT_TRUE(a.compare(start, a.size() - start - 8, b, start, b.size() - start - 8) == 0)
+      << merged << ": side-file payload differs";
+}
+
+size_t key_text_bytes(const fs::path& matrix_file) {
+  const std::string bytes = bytes_of(matrix_file);
+  uint32_t key = 0;
+  std::memcpy(&key, bytes.data() + 28, sizeof key);  // after magic, version, order, n, precision
+  return key;
+}
+
+void blocks_then_merge(const std::string& exp, const std::string& cache, size_t count) {
+  for (size_t k = 1; k <= count; ++k) {
+    const Result block = prepare(
+        cache, exp + " --problem 0 --block " + std::to_string(k) + "/" + std::to_string(count));
+    ASSERT_EQ(block.code, 0) << block.output;
+  }
+}
+
+void expect_merge_equals_one_process(const std::string& method, const std::string& side_suffix,
+                                     const std::vector<size_t>& counts) {
+  TempDir dir;
+  const std::string exp = experiment(dir, method);
+  const std::string single = dir.file("single");
+  const Result one = prepare(single, exp);
+  ASSERT_EQ(one.code, 0) << one.output;
+  const fs::path single_matrix = only_file(single, ".ffm");
+  for (size_t count : counts) {
+    SCOPED_TRACE(method + " in " + std::to_string(count) + " blocks");
+    const std::string cache = dir.file("blocks" + std::to_string(count));
+    blocks_then_merge(exp, cache, count);
+    EXPECT_EQ(files_ending(cache, ".ffb").size(), count);
+    EXPECT_TRUE(files_ending(cache, ".ffm").empty());  // blocks alone are not a matrix
+    const std::string record = dir.file("record" + std::to_string(count) + ".json");
+    const Result merge =
+        prepare(cache, exp + " --merge-blocks " + std::to_string(count) + " --record " + record);
+    ASSERT_EQ(merge.code, 0) << merge.output;
+    const fs::path merged = only_file(cache, ".ffm");
+    EXPECT_EQ(merged.filename(), single_matrix.filename());  // the same key
+    expect_same_matrix_file(merged, single_matrix);
+    expect_same_side_payload(merged.string() + side_suffix, single_matrix.string() + side_suffix,
+                             key_text_bytes(single_matrix));
+    // The preparation after the merge used the merged matrix from the cache, and certified.
+    const std::string json = bytes_of(record);
+    EXPECT_NE(json.find("\"matrix_from_cache\": true"), std::string::npos) << json;
+    EXPECT_NE(json.find("certified"), std::string::npos) << json;
+  }
+}
+
+TEST(PrepareBlocks, RaycastMergedInThreeAndSevenBlocksIsTheOneProcessBuild) {
+  expect_merge_equals_one_process("raycast", ".sigma", {3, 7});
+}
+
+TEST(PrepareBlocks, HemicubeMergedInThreeBlocksIsTheOneProcessBuild) {
+  expect_merge_equals_one_process("hemicube", ".emitters", {3});
+}
+
+TEST(PrepareBlocks, BlockIndexOrCountOutOfRangeIsAUsageError) {
+  TempDir dir;
+  const std::string exp = experiment(dir, "raycast"), cache = dir.file("cache");
+  for (const char* block : {"0/3", "4/3", "1/0", "3", "a/b", "-1/3"}) {
+    const Result r = prepare(cache, exp + " --problem 0 --block " + block);
+    EXPECT_EQ(r.code, 2) << block << ": " << r.output;
+    EXPECT_OUTPUT_HAS(r, "--block");
+  }
+  EXPECT_EQ(prepare(cache, exp + " --merge-blocks 0").code, 2);
+  // More blocks than the matrix's 80 rows: a block range outside the matrix (invalid input).
+  const Result many = prepare(cache, exp + " --problem 0 --block 1/81");
+  EXPECT_EQ(many.code, 3) << many.output;
+  EXPECT_OUTPUT_HAS(many, "at most 80 blocks");
+  EXPECT_TRUE(files_ending(cache, ".ffb").empty());
+  EXPECT_TRUE(files_ending(cache, ".ffm").empty());
+}
+
+// A block is held to the limits by its own work: rows 0 to 25 of 80 elements are 2,080 pairs.
+TEST(PrepareBlocks, ABlockIsHeldToTheLimitsByItsOwnPairs) {
+  TempDir dir;
+  const std::string exp = experiment(dir, "raycast"), cache = dir.file("cache");
+  const Result refused = prepare(cache, exp + " --problem 0 --block 1/3", "--limits pairs=2000");
+  EXPECT_EQ(refused.code, 3) << refused.output;
+  EXPECT_OUTPUT_HAS(refused, "block 1/3 (rows 0 to 25) of the form-factor matrix of 80 elements");
+  EXPECT_OUTPUT_HAS(refused, "2080 pairs, above the limit of 2000 pairs");
+  EXPECT_TRUE(files_ending(cache, ".ffb").empty());
+  EXPECT_EQ(prepare(cache, exp + " --problem 0 --block 1/3", "--limits pairs=2100").code, 0);
+}
+
+TEST(PrepareBlocks, AMethodThatIntegratesEachPairOnceIsNotBuiltInBlocks) {
+  TempDir dir;
+  // The cube: a convex enclosure, where exact needs no visibility.
+  const Result r = prepare(dir.file("cache"),
+                           experiment(dir, "exact", "builtin:cube") + " --problem 0 --block 1/2");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_OUTPUT_HAS(r, "form factors 'exact': not built in blocks");
+}
+
+// Each refusal names the block and its file, exits 3 and writes no matrix.
+void expect_refused(const std::string& exp, const std::string& cache, size_t count,
+                    const std::string& names) {
+  const Result r = prepare(cache, exp + " --merge-blocks " + std::to_string(count));
+  EXPECT_EQ(r.code, 3) << r.output;
+  EXPECT_OUTPUT_HAS(r, names);
+  EXPECT_TRUE(files_ending(cache, ".ffm").empty()) << "a refused merge wrote a matrix";
+}
+
+TEST(PrepareBlocks, AMissingBlockIsNamed) {
+  TempDir dir;
+  const std::string exp = experiment(dir, "raycast"), cache = dir.file("cache");
+  for (const char* block : {"1/3", "3/3"})
+    ASSERT_EQ(prepare(cache, exp + " --problem 0 --block " + block).code, 0);
+  expect_refused(exp, cache, 3, "1 missing (nothing written):\n  block 2/3 (rows 26 to 52)");
+  EXPECT_EQ(prepare(cache, exp + " --problem 0 --block 2/3").code, 0);
+  EXPECT_EQ(prepare(cache, exp + " --merge-blocks 3").code, 0);  // complete now
+}
+
+TEST(PrepareBlocks, ABlockOfAnotherSplitOrSceneIsRefused) {
+  TempDir dir;
+  const std::string exp = experiment(dir, "raycast"), cache = dir.file("cache");
+  blocks_then_merge(exp, cache, 3);
+  const fs::path second = only_file(cache, ".block-2-of-3.ffb");
+  // Block 2 of a split in 4 where block 2 of 3 belongs: its stored key says block=2/4.
+  const std::string other_split = dir.file("split");
+  blocks_then_merge(exp, other_split, 4);
+  fs::copy_file(only_file(other_split, ".block-2-of-4.ffb"), second,
+                fs::copy_options::overwrite_existing);
+  expect_refused(exp, cache, 3, second.string() + ": block 2/3 (rows 26 to 52)");
+  expect_refused(exp, cache, 3, "block=2/4");
+  // Block 2 of 3 of another scene (another mesh: another key).
+  const std::string other_scene = dir.file("scene");
+  const std::string other = experiment(dir, "raycast", "builtin:cube");
+  ASSERT_EQ(prepare(other_scene, other + " --problem 0 --block 2/3").code, 0);
+  fs::copy_file(only_file(other_scene, ".block-2-of-3.ffb"), second,
+                fs::copy_options::overwrite_existing);
+  expect_refused(exp, cache, 3, second.string() + ": block 2/3");
+}
+
+TEST(PrepareBlocks, ACorruptBlockOrSideFileIsRefused) {
+  TempDir dir;
+  const std::string exp = experiment(dir, "raycast"), cache = dir.file("cache");
+  blocks_then_merge(exp, cache, 3);
+  const fs::path third = only_file(cache, ".block-3-of-3.ffb");
+  const std::string intact = bytes_of(third);
+  std::string damaged = intact;
+  damaged[damaged.size() - 3] ^= 0x10;  // a bit of the last value
+  std::ofstream(third, std::ios::binary | std::ios::trunc) << damaged;
+  expect_refused(exp, cache, 3, third.string() + ": block 3/3 (rows 53 to 79)");
+  expect_refused(exp, cache, 3, "checksum mismatch");
+  std::ofstream(third, std::ios::binary | std::ios::trunc) << intact;
+  const fs::path sigma = third.string() + ".sigma";
+  std::string side = bytes_of(sigma);
+  side[side.size() - 12] ^= 0x10;
+  std::ofstream(sigma, std::ios::binary | std::ios::trunc) << side;
+  expect_refused(exp, cache, 3, "its side file " + sigma.string());
+}
+
+TEST(PrepareBlocks, PlanGivesEachBlockAndTheMerge) {
+  TempDir dir;
+  const std::string exp = experiment(dir, "raycast"), cache = dir.file("cache");
+  const Result plan = prepare(cache, exp + " --plan --blocks 3");
+  ASSERT_EQ(plan.code, 0) << plan.output;
+  for (const char* part :
+       {"\"block\": 1,", "\"block\": 3,", "\"first_row\": 53,", "\"end_row\": 80,", "\"merge\": {"})
+    EXPECT_OUTPUT_HAS(plan, part);
+  EXPECT_FALSE(fs::exists(cache));  // --plan builds nothing
+  const Result exact =
+      prepare(cache, experiment(dir, "exact", "builtin:cube") + " --plan --blocks 3");
+  ASSERT_EQ(exact.code, 0) << exact.output;
+  EXPECT_OUTPUT_HAS(exact, "\"blocks\": [],");
+  EXPECT_OUTPUT_HAS(exact, "are not built in blocks");
+}
+
+}  // namespace
+}  // namespace radlab
