@@ -135,6 +135,9 @@ std::string files_section(const fs::path& folder, const std::vector<std::string>
        "one row per run: final errors, rows and seconds to each threshold, fitted "
        "rates"},
       {"trace.csv", "every run's errors at every checkpoint"},
+      {"aggregate.csv",
+       "per configuration repeated over solver seeds: mean, standard deviation and 90% band of "
+       "the final errors"},
       {"sweep.json", "what the folder holds: experiment, digests, build, runs, failures"},
       {"contact_sheet.png", "every run's images side by side"}};
   for (const auto& [name, what] : top)

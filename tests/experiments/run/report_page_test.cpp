@@ -111,6 +111,25 @@ TEST(ReportPage, ASweepWritesAPageWhoseLinksAndImagesAreSound) {
   EXPECT_EQ(images, 9u);
 }
 
+TEST(ReportPage, ASweepOverSolverSeedsLinksItsAggregate) {
+  TempDir dir;
+  const std::string toml = dir.write("e.toml", R"(name = "seeds"
+scenes = ["builtin:cube:rho=0.8"]
+subdiv = 2
+solvers = ["stochastic-jacobi"]
+repeats = 2
+[budget]
+steps = 3
+)");
+  const std::string out = dir.file("out");
+  CommandResult run = radlab(dir, "-q run " + toml + " --out " + out);
+  ASSERT_EQ(run.code, 0) << run.output;
+  ASSERT_TRUE(fs::exists(out + "/aggregate.csv"));
+  EXPECT_NE(read_text(out + "/index.html").find("href=\"aggregate.csv\""), std::string::npos);
+  CommandResult checked = check_page(out);  // follows the link
+  EXPECT_EQ(checked.code, 0) << checked.output;
+}
+
 TEST(ReportPage, AMergedSweepHasItsPage) {
   TempDir dir;
   const std::string toml = dir.write("e.toml", kTinyWithImages);
