@@ -54,6 +54,20 @@ struct TriCells {
 };
 const TriCells kTriCells;
 
+// Row k of the packet: the segment from x to y, trimmed at both ends (t in [1e-5, 1 - 1e-5]) so
+// that the two end polygons do not block it.
+void set_segment(SegmentPacket& packet, int k, const Vec3& x, const Vec3& y) {
+  const Vec3 d = y - x;
+  packet.ox[k] = float(x.x);
+  packet.oy[k] = float(x.y);
+  packet.oz[k] = float(x.z);
+  packet.dx[k] = float(d.x);
+  packet.dy[k] = float(d.y);
+  packet.dz[k] = float(d.z);
+  packet.t_near[k] = 1e-5f;
+  packet.t_far[k] = 1.0f - 1e-5f;
+}
+
 }  // namespace
 
 Vec3 stratum_point(const NodeGeometry& g, int cell, double u1, double u2) {
@@ -87,17 +101,7 @@ int NodeVisibility::unblocked(const NodeGeometry& p, uint32_t p_polygon, const N
   for (int k = 0; k < kVisibilityRays; ++k) {
     const double a1 = rng.next_double(), a2 = rng.next_double();
     const double b1 = rng.next_double(), b2 = rng.next_double();
-    const Vec3 x = stratum_point(p, k, a1, a2);
-    const Vec3 y = stratum_point(q, kMagic[k], b1, b2);
-    const Vec3 d = y - x;
-    packet.ox[k] = float(x.x);
-    packet.oy[k] = float(x.y);
-    packet.oz[k] = float(x.z);
-    packet.dx[k] = float(d.x);
-    packet.dy[k] = float(d.y);
-    packet.dz[k] = float(d.z);
-    packet.t_near[k] = 1e-5f;
-    packet.t_far[k] = 1.0f - 1e-5f;
+    set_segment(packet, k, stratum_point(p, k, a1, a2), stratum_point(q, kMagic[k], b1, b2));
   }
   bool blocked[16];
   embree_->occluded16(packet, blocked, p_polygon, q_polygon);
@@ -112,15 +116,7 @@ int NodeVisibility::unblocked_segments(const Vec3* x, const Vec3* y, const uint3
   SegmentPacket packet;
   packet.count = count;
   for (int k = 0; k < count; ++k) {
-    const Vec3 d = y[k] - x[k];
-    packet.ox[k] = float(x[k].x);
-    packet.oy[k] = float(x[k].y);
-    packet.oz[k] = float(x[k].z);
-    packet.dx[k] = float(d.x);
-    packet.dy[k] = float(d.y);
-    packet.dz[k] = float(d.z);
-    packet.t_near[k] = 1e-5f;
-    packet.t_far[k] = 1.0f - 1e-5f;
+    set_segment(packet, k, x[k], y[k]);
   }
   bool blocked[16];
   embree_->occluded16_each(packet, blocked, x_polygon, y_polygon);

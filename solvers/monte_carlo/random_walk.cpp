@@ -230,18 +230,9 @@ class RandomWalkSolver final : public Solver {
       if (hit == ElementRays::kMiss) return;
       const double s = survival_[hit];
       const bool survives = rng.next_double() < s;
-      double factor = 0.0;  // the score is w_c rho_kc times this
-      switch (estimator_) {
-        case Estimator::kCollision:
-          factor = 1.0;
-          break;
-        case Estimator::kSurvival:
-          factor = s == 0.0 ? 0.0 : (survives ? 1.0 / s : 0.0);  // s = 0: rho = 0, nothing
-          break;
-        case Estimator::kAbsorption:
-          factor = survives ? 0.0 : 1.0 / (1.0 - s);
-          break;
-      }
+      // s = 0 means rho = 0 at the hit: the score (w rho) is nothing whatever the weight.
+      const double factor =
+          estimator_weight(s, survives, 0.0);  // the score is w_c rho_kc times this
       if (factor != 0.0) {
         Score score{hit, {0.0, 0.0, 0.0}};
         for (int c = 0; c < channels_; ++c) score.value[c] = w[c] * rho.at(c, hit) * factor;
@@ -251,6 +242,21 @@ class RandomWalkSolver final : public Solver {
       for (int c = 0; c < channels_; ++c) w[c] *= rho.at(c, hit) / s;
       at = hit;
     }
+  }
+
+  // The estimator's weight of a landing on an element the walk survives with probability s:
+  // collision scores every landing, survival only those the walk goes on from (1/s), absorption
+  // only those it ends at (1/(1 - s)); `at_zero` is the survival estimator's weight where s = 0.
+  double estimator_weight(double s, bool survives, double at_zero) const {
+    switch (estimator_) {
+      case Estimator::kCollision:
+        return 1.0;
+      case Estimator::kSurvival:
+        return s == 0.0 ? at_zero : (survives ? 1.0 / s : 0.0);
+      case Estimator::kAbsorption:
+        return survives ? 0.0 : 1.0 / (1.0 - s);
+    }
+    return 0.0;
   }
 
   // One gathering walk from `start`: one score, the sum of its contributions to B_start - E.
@@ -271,18 +277,9 @@ class RandomWalkSolver final : public Solver {
         if (hit == ElementRays::kMiss) break;
         const double s = survival_[hit];
         const bool survives = rng.next_double() < s;
-        double factor = 0.0;  // the score is w_c E_yc times this
-        switch (estimator_) {
-          case Estimator::kCollision:
-            factor = 1.0;
-            break;
-          case Estimator::kSurvival:
-            factor = s == 0.0 ? 1.0 : (survives ? 1.0 / s : 0.0);
-            break;
-          case Estimator::kAbsorption:
-            factor = survives ? 0.0 : 1.0 / (1.0 - s);
-            break;
-        }
+        // s = 0: the walk ends on an element that reflects nothing; its emission counts once.
+        const double factor =
+            estimator_weight(s, survives, 1.0);  // the score is w_c E_yc times this
         for (int c = 0; c < channels_; ++c) total.value[c] += w[c] * E.at(c, hit) * factor;
         if (!survives) break;
         for (int c = 0; c < channels_; ++c) w[c] *= rho.at(c, hit) / s;

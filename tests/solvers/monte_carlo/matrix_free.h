@@ -6,10 +6,12 @@
 #include <memory>
 #include <string>
 
+#include "formfactor/methods/exact.h"
 #include "formfactor/methods/raycast.h"
 #include "scene/builtin/builtin_scenes.h"
 #include "scene/validate.h"
 #include "solvers/system.h"
+#include "tests/solver_support.h"
 
 namespace radlab::testing {
 
@@ -28,6 +30,19 @@ inline std::unique_ptr<MatrixFree> matrix_free(const std::string& spec, int subd
   s->method = std::make_unique<RaycastFormFactors>(s->scene, s->mesh, RaycastOptions{});
   s->system = std::make_unique<System>(s->scene, s->mesh, *s->method);
   return s;
+}
+
+// The Cornell box (`--subdiv 1`: 20 elements, RGB, two occluding blocks, an open front) with the
+// `exact` form factors (clipped visibility, tolerance 1e-8 per pair) and their certified reference:
+// the exact-F system the Monte Carlo solvers' expectations are of.
+inline std::unique_ptr<Setup> exact_cornell() {
+  return setup_scene_with(make_builtin_scene("cornell"), 1, Precision::kDouble, false,
+                          [](const Scene& scene, const Mesh& mesh) {
+                            ExactOptions options;
+                            options.visibility_clip = true;
+                            options.tolerance = 1e-8;
+                            return std::make_unique<ExactFormFactors>(scene, mesh, options);
+                          });
 }
 
 }  // namespace radlab::testing

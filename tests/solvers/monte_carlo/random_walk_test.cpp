@@ -118,14 +118,7 @@ TEST(RandomWalk, MeanOverSeedsIsTheExactFSolutionOnTheOccludedCornellBox) {
   // solution with the exact F: the `exact` form factors with clipped visibility (tolerance 1e-8
   // per pair, far below the intervals' ~1e-3 relative), solved by the certified reference.
   // 20 elements x 3 channels, 64 seeds of 2 x 10^4 walks (two steps) for each pair.
-  auto exact =
-      testing::setup_scene_with(make_builtin_scene("cornell"), 1, Precision::kDouble, false,
-                                [](const Scene& scene, const Mesh& mesh) {
-                                  ExactOptions options;
-                                  options.visibility_clip = true;
-                                  options.tolerance = 1e-8;
-                                  return std::make_unique<ExactFormFactors>(scene, mesh, options);
-                                });
+  auto exact = testing::exact_cornell();
   for (const auto& variant : kVariants) {
     std::vector<std::string> params = variant;
     params.push_back("paths=10000");

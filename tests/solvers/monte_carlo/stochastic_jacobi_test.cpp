@@ -200,14 +200,7 @@ TEST(StochasticJacobi, MeanOverSeedsIsTheJacobiIterateOnTheOccludedCornellBox) {
   // stopping time: the expectation is the iterate above only if every seed switches at the same
   // step, which the test checks (the criterion's margin is far wider than the unshot power's
   // noise at 4000 rays).
-  auto exact =
-      testing::setup_scene_with(make_builtin_scene("cornell"), 1, Precision::kDouble, false,
-                                [](const Scene& scene, const Mesh& mesh) {
-                                  ExactOptions options;
-                                  options.visibility_clip = true;
-                                  options.tolerance = 1e-8;
-                                  return std::make_unique<ExactFormFactors>(scene, mesh, options);
-                                });
+  auto exact = testing::exact_cornell();
   const System& system = *exact->system;
   constexpr int kSteps = 12;
   for (const char* variate : {"control_variate=false", "control_variate=true"}) {
