@@ -449,6 +449,13 @@ constexpr Stages kOneLevel{matrix_stage, checks_stage, reference_stage, system_s
 constexpr Stages kTwoLevels{two_level_rows_stage, two_level_checks_stage, two_level_reference_stage,
                             two_level_system_stage};
 
+// Every preparation starts so: the scene, its mesh, the form-factor method on it.
+void method_stages(Preparation& p) {
+  scene_stage(p);
+  mesh_stage(p);
+  method_stage(p);
+}
+
 // The method's stages, then the cache and the key a blocked build works on.
 std::unique_ptr<Problem> prepare_for_blocks(const ProblemSpec& spec, MatrixCache& cache,
                                             MatrixCacheKey& key) {
@@ -470,9 +477,7 @@ std::unique_ptr<Problem> prepare_method(const ProblemSpec& spec) {
   auto problem = std::make_unique<Problem>();
   problem->spec = spec;
   Preparation p{*problem, spec};
-  scene_stage(p);
-  mesh_stage(p);
-  method_stage(p);
+  method_stages(p);
   return problem;
 }
 
@@ -520,9 +525,7 @@ std::unique_ptr<Problem> prepare_problem(const ProblemSpec& spec) {
   auto problem = std::make_unique<Problem>();
   problem->spec = spec;
   Preparation p{*problem, spec};
-  scene_stage(p);
-  mesh_stage(p);
-  method_stage(p);
+  method_stages(p);
   const Stages& stages = spec.patches.two_level() ? kTwoLevels : kOneLevel;
   stages.matrix(p);
   stages.checks(p);
