@@ -105,6 +105,8 @@ struct Preparation {
   // method computes, the row sums of that pass, and the System it was certified on.
   std::optional<StreamedCheck> streamed;
   std::unique_ptr<System> streamed_system;
+  // Whether that pass was read from the reference cache's stored check (not recomputed).
+  bool streamed_check_stored = false;
   // While the matrix is built and stored: the lock that makes concurrent processes build it once.
   std::unique_ptr<FileLock> building;
 
@@ -181,12 +183,15 @@ void find_streamed_reference(Preparation& p) {
       "cached reference, certified with rows on the fly (" + std::to_string(p.n()) + " rows)", "",
       0);
   StreamedCheck check;
-  problem.reference = references.load(reference_key, *on_the_fly, *problem.method, {}, check);
+  bool stored = false;
+  problem.reference =
+      references.load(reference_key, *on_the_fly, *problem.method, {}, check, true, stored);
   progress.finish();
   if (!problem.reference) return;
   p.streamed = std::move(check);
+  p.streamed_check_stored = stored;
   p.streamed_system = std::move(on_the_fly);
-  problem.preparation.push_back("reference streamed");
+  problem.preparation.push_back(stored ? "reference checked" : "reference streamed");
   problem.reference_cache_file = references.path(reference_key).string();
 }
 
@@ -367,8 +372,12 @@ std::string certified_system_text(const Preparation& p) {
               ? "; UNPHYSICAL: rows of F above 1 + the method's stated error, accepted with "
                 "unphysical=accept"
               : "") +
-         (p.streamed ? "; rows computed on the fly, the cached reference certified against them"
-                     : "");
+         (!p.streamed ? ""
+          : p.streamed_check_stored
+              ? "; rows computed on the fly, the cached reference certified by the residual pass "
+                "stored with it (the same rows, computed once; key, solution and checksum "
+                "verified)"
+              : "; rows computed on the fly, the cached reference certified against them");
 }
 
 // Stage 6, reference (cached): certified anew when loaded; computed under the key's lock on a
@@ -403,6 +412,13 @@ void reference_stage(Preparation& p) {
     } else {
       problem.preparation.push_back("reference loaded");
     }
+    // The method's own rows (not symmetrised) are the rows a run on the fly computes: store their
+    // residual pass now, from the matrix in memory, so that such a run certifies the reference
+    // without computing every row again.
+    if (references && !p.symmetrise &&
+        !std::filesystem::exists(references->check_path(reference_key)))
+      references->store_check(reference_key, problem.reference->B,
+                              matrix_check(cached, certified, problem.reference->B));
     progress.finish();
   }
   problem.reference->system = certified_system_text(p);

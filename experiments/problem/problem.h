@@ -73,7 +73,9 @@ struct Problem {
   // What preparing it did, in order, one word each (run.json's problem.preparation; tests assert
   // on it): "matrix built", "matrix loaded" (from the cache), "reference computed",
   // "reference loaded" (certified anew against the matrix), "reference streamed" (loaded from the
-  // cache, certified with rows on the fly: no matrix), "patch rows built" (two levels).
+  // cache, certified with rows on the fly: no matrix), "reference checked" (loaded from the cache,
+  // certified by the residual pass stored with it: no matrix, no rows), "patch rows built" (two
+  // levels).
   std::vector<std::string> preparation;
 
   const Scene& scene() const { return loaded.scene; }

@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -73,12 +74,122 @@ std::optional<Reference> ReferenceCache::load(const ReferenceCacheKey& key, cons
 
 std::optional<Reference> ReferenceCache::load(const ReferenceCacheKey& key, const System& system,
                                               const FormFactorMethod& method,
-                                              const ReferenceOptions& options,
-                                              StreamedCheck& check) const {
-  return load(key, system, [&](Reference& ref) {
-    check = streamed_check(system, method, ref.B);
+                                              const ReferenceOptions& options, StreamedCheck& check,
+                                              bool use_stored_check, bool& check_was_stored) const {
+  check_was_stored = false;
+  bool computed = false;
+  auto reference = load(key, system, [&](Reference& ref) {
+    std::optional<StreamedCheck> stored;
+    if (use_stored_check) stored = load_check(key, ref.B);
+    if (stored && stored->row_sum.size() == system.size()) {
+      check = std::move(*stored);
+      check_was_stored = true;
+    } else {
+      check = streamed_check(system, method, ref.B);
+      computed = true;
+    }
     recertify_reference(system, check.residual, ref, options);
   });
+  // Stored only once it certified: a check that did not is never kept.
+  if (reference && computed) store_check(key, reference->B, check);
+  return reference;
+}
+
+namespace {
+
+constexpr char kCheckMagic[8] = {'R', 'A', 'D', 'L', 'A', 'B', 'C', 'K'};
+constexpr uint32_t kCheckFormatVersion = 1;
+
+// Fixed layout; followed by the key text, the residual per channel, the row sums and the
+// emission-weighted row sums (n each) and a checksum of everything before it.
+struct CheckHeader {
+  char magic[8];
+  uint32_t version;
+  uint32_t channels;
+  uint64_t n;
+  uint64_t solution_hash;  // of B's bytes: the check is of this solution only
+  uint32_t key_text_bytes;
+  uint32_t reserved;
+};
+static_assert(sizeof(CheckHeader) == 40, "the check file header layout must not change silently");
+
+uint64_t solution_hash(const Radiosity& B) {
+  uint64_t h = 0x50107104;
+  for (int c = 0; c < B.channels(); ++c)
+    h = hash_bytes(B.channel(c).data(), B.channel(c).size_bytes(), h);
+  return h;
+}
+
+}  // namespace
+
+std::optional<StreamedCheck> ReferenceCache::load_check(const ReferenceCacheKey& key,
+                                                        const Radiosity& B) const {
+  const std::filesystem::path file = check_path(key);
+  std::error_code ec;
+  if (!std::filesystem::exists(file, ec)) return std::nullopt;
+  auto reject = [&](const std::string& why) -> std::optional<StreamedCheck> {
+    folder_.distrust(file, "its stored residual pass: " + why);
+    return std::nullopt;
+  };
+  std::ifstream in(file, std::ios::binary);
+  if (!in) return std::nullopt;
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  const std::string bytes = buffer.str();
+  CheckHeader h{};
+  if (bytes.size() < sizeof h + sizeof(uint64_t)) return reject("truncated");
+  std::memcpy(&h, bytes.data(), sizeof h);
+  if (std::memcmp(h.magic, kCheckMagic, sizeof kCheckMagic) != 0)
+    return reject("not a radlab reference check");
+  if (h.version != kCheckFormatVersion) return reject("stale format version");
+  const size_t body = bytes.size() - sizeof(uint64_t);
+  uint64_t checksum = 0;
+  std::memcpy(&checksum, bytes.data() + body, sizeof checksum);
+  if (hash_bytes(bytes.data(), body, kChecksumSeed) != checksum)
+    return reject("checksum mismatch (corrupt)");
+  if (h.channels != uint32_t(B.channels()) || h.n != B.size())
+    return reject("stored for another system");
+  if (body != sizeof h + h.key_text_bytes + (h.channels + 2 * h.n) * sizeof(double))
+    return reject("corrupt sizes");
+  const char* p = bytes.data() + sizeof h;
+  if (std::string(p, h.key_text_bytes) != key.text) return reject("stale: stored for another key");
+  if (h.solution_hash != solution_hash(B)) return reject("stored for another solution");
+  p += h.key_text_bytes;
+  StreamedCheck check;
+  auto read = [&](std::vector<double>& v, size_t count) {
+    v.resize(count);
+    std::memcpy(v.data(), p, count * sizeof(double));
+    p += count * sizeof(double);
+  };
+  read(check.residual, h.channels);
+  read(check.row_sum, h.n);
+  read(check.emitter_sum, h.n);
+  for (double v : check.residual)
+    if (!(v >= 0.0) || !std::isfinite(v)) return reject("a residual that is not finite");
+  return check;
+}
+
+bool ReferenceCache::store_check(const ReferenceCacheKey& key, const Radiosity& B,
+                                 const StreamedCheck& check) const {
+  if (check.residual.size() != size_t(B.channels()) || check.row_sum.size() != B.size() ||
+      check.emitter_sum.size() != B.size())
+    return false;
+  CheckHeader h{};
+  std::memcpy(h.magic, kCheckMagic, sizeof kCheckMagic);
+  h.version = kCheckFormatVersion;
+  h.channels = uint32_t(B.channels());
+  h.n = B.size();
+  h.solution_hash = solution_hash(B);
+  h.key_text_bytes = uint32_t(key.text.size());
+  std::string bytes;
+  append(bytes, &h, 1);
+  bytes += key.text;
+  append(bytes, check.residual.data(), check.residual.size());
+  append(bytes, check.row_sum.data(), check.row_sum.size());
+  append(bytes, check.emitter_sum.data(), check.emitter_sum.size());
+  const uint64_t checksum = hash_bytes(bytes.data(), bytes.size(), kChecksumSeed);
+  append(bytes, &checksum, 1);
+  return folder_.write(check_path(key), [&](OutputFile& out) { out.write(bytes); });
 }
 
 std::optional<Reference> ReferenceCache::load(

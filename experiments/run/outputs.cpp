@@ -129,10 +129,12 @@ void write_left_out(JsonWriter& json, const Problem& p) {
   if (p.system && p.system->two_level())
     left_out.push_back("dense matrix: none (two levels: P x n patch rows, K's rows from them)");
   else if (!p.has_matrix())
-    left_out.push_back(p.reference && p.reference->kind == "certified"
-                           ? "dense matrix: none (rows streamed; the cached reference re-certified "
-                             "against them; the solver's own error is not certified at checkpoints)"
-                           : "dense matrix: none (rows streamed, no reference)");
+    left_out.push_back(
+        p.reference && p.reference->kind == "certified"
+            ? "dense matrix: none (rows streamed; the cached reference certified "
+              "against them or their stored residual pass; the solver's own error is "
+              "not certified at checkpoints)"
+            : "dense matrix: none (rows streamed, no reference)");
   json.field("left_out", left_out);
 }
 

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <limits>
 #include <memory>
 
@@ -431,8 +432,12 @@ Reference compute_reference(const System& system, const FormFactorMatrix& F,
   return ref;
 }
 
-StreamedCheck streamed_check(const System& system, const FormFactorMethod& method,
-                             const Radiosity& B) {
+namespace {
+
+// One pass over rows fetched by `row_of(i, row)` (n doubles): the residual per channel, every row's
+// sum and emission-weighted sum. Shared by rows on the fly and rows of a matrix in memory.
+StreamedCheck check_rows(const System& system, const Radiosity& B,
+                         const std::function<void(size_t, std::vector<double>&)>& row_of) {
   const size_t n = system.size();
   const int channels = B.channels();
   const long double g = gamma_for(kBlock + n / kBlock + 5);
@@ -452,8 +457,7 @@ StreamedCheck streamed_check(const System& system, const FormFactorMethod& metho
         thread_local std::vector<double> row;
         row.resize(n);
         for (size_t i = range.begin(); i != range.end(); ++i) {
-          RowCost cost;
-          method.row(i, row, cost);
+          row_of(i, row);
           double sum = 0.0, emitted = 0.0;
           for (size_t j = 0; j < n; ++j) sum += row[j];
           for (size_t j : emitters) emitted += emission[j] * row[j];
@@ -478,6 +482,25 @@ StreamedCheck streamed_check(const System& system, const FormFactorMethod& metho
         return a;
       });
   return out;
+}
+
+}  // namespace
+
+StreamedCheck streamed_check(const System& system, const FormFactorMethod& method,
+                             const Radiosity& B) {
+  return check_rows(system, B, [&](size_t i, std::vector<double>& row) {
+    RowCost cost;
+    method.row(i, row, cost);
+  });
+}
+
+StreamedCheck matrix_check(const System& system, const FormFactorMatrix& matrix,
+                           const Radiosity& B) {
+  return check_rows(system, B, [&](size_t i, std::vector<double>& row) {
+    matrix.visit_row(i, [&](const auto* f) {
+      for (size_t j = 0; j < row.size(); ++j) row[j] = static_cast<double>(f[j]);
+    });
+  });
 }
 
 void recertify_reference(const System& system, const FormFactorMatrix& matrix, Reference& ref,

@@ -106,6 +106,11 @@ struct StreamedCheck {
 };
 StreamedCheck streamed_check(const System& system, const FormFactorMethod& method,
                              const Radiosity& B);
+// The same pass over a matrix in memory, term for term (the same rows give the same numbers): what
+// the reference cache stores beside a reference, so that a later run with rows on the fly need
+// not compute every row again to certify it (experiments/problem/reference_cache.h).
+StreamedCheck matrix_check(const System& system, const FormFactorMatrix& matrix,
+                           const Radiosity& B);
 
 // recertify_reference with the residuals of a streamed_check (rows from the method).
 void recertify_reference(const System& system, const std::vector<double>& residuals, Reference& ref,

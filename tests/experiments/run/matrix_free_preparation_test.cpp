@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -66,9 +68,10 @@ TEST(MatrixFreePreparation, CachedReferenceIsStreamedWithoutAMatrix) {
   EXPECT_TRUE(did(*first, "matrix built"));
   EXPECT_TRUE(did(*first, "reference computed"));
   ASSERT_TRUE(first->reference.has_value());
-  // Then the reference comes from the cache, certified with rows on the fly: no matrix at all.
+  // Then the reference comes from the cache, certified by the residual pass the first run stored
+  // beside it from the matrix in memory: no matrix at all, and no row computed.
   auto second = prepare_run_problem(cube_spec(cache), ReferenceChoice{}, Budget{}, false);
-  EXPECT_EQ(second->preparation, std::vector<std::string>{"reference streamed"});
+  EXPECT_EQ(second->preparation, std::vector<std::string>{"reference checked"});
   EXPECT_FALSE(second->has_matrix());
   ASSERT_TRUE(second->reference.has_value());
   EXPECT_EQ(second->reference->kind, "certified");
@@ -79,6 +82,49 @@ TEST(MatrixFreePreparation, CachedReferenceIsStreamedWithoutAMatrix) {
   EXPECT_TRUE(did(*flat, "matrix loaded"));
   EXPECT_FALSE(did(*flat, "matrix built"));
   EXPECT_TRUE(flat->has_matrix());
+}
+
+// Every .check file of the cache folder (the reference's stored residual pass).
+std::vector<std::filesystem::path> check_files(const testing::TempDir& cache) {
+  std::vector<std::filesystem::path> out;
+  for (const auto& entry : std::filesystem::directory_iterator(cache.path()))
+    if (entry.path().extension() == ".check") out.push_back(entry.path());
+  return out;
+}
+
+// The stored residual pass certifies exactly what the pass over rows on the fly certifies (the
+// same rows: the same numbers, bit for bit); without it (deleted) or damaged (a flipped byte: the
+// checksum) the rows are computed again, and the pass is stored anew.
+TEST(MatrixFreePreparation, StoredResidualPassCertifiesLikeTheRowsOnTheFly) {
+  testing::TempDir cache;
+  auto first = prepare_run_problem(cube_spec(cache), ReferenceChoice{}, Budget{}, false);
+  ASSERT_TRUE(first->reference.has_value());
+  ASSERT_EQ(check_files(cache).size(), 1u);
+  auto checked = prepare_run_problem(cube_spec(cache), ReferenceChoice{}, Budget{}, false);
+  ASSERT_EQ(checked->preparation, std::vector<std::string>{"reference checked"});
+
+  std::filesystem::remove(check_files(cache).front());
+  auto streamed = prepare_run_problem(cube_spec(cache), ReferenceChoice{}, Budget{}, false);
+  ASSERT_EQ(streamed->preparation, std::vector<std::string>{"reference streamed"});
+  EXPECT_EQ(checked->reference->residual_inf, streamed->reference->residual_inf);
+  EXPECT_EQ(checked->reference->bound_inf, streamed->reference->bound_inf);
+  EXPECT_EQ(checked->row_sums.row_sum_min, streamed->row_sums.row_sum_min);
+  EXPECT_EQ(checked->row_sums.row_sum_max, streamed->row_sums.row_sum_max);
+  EXPECT_NE(checked->reference->system.find("stored with it"), std::string::npos);
+  EXPECT_EQ(streamed->reference->system.find("stored with it"), std::string::npos);
+  // The streamed run stored its pass: the next run reads it.
+  ASSERT_EQ(check_files(cache).size(), 1u);
+  auto again = prepare_run_problem(cube_spec(cache), ReferenceChoice{}, Budget{}, false);
+  EXPECT_EQ(again->preparation, std::vector<std::string>{"reference checked"});
+
+  {  // one byte of the stored pass flipped: refused by the checksum, the rows computed again
+    std::fstream f(check_files(cache).front(), std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(-9, std::ios::end);
+    f.put('\x5a');
+  }
+  auto damaged = prepare_run_problem(cube_spec(cache), ReferenceChoice{}, Budget{}, false);
+  EXPECT_EQ(damaged->preparation, std::vector<std::string>{"reference streamed"});
+  EXPECT_EQ(damaged->reference->residual_inf, streamed->reference->residual_inf);
 }
 
 TEST(SecondsWithSetup, ChargesTheMatrixBuildOnlyToRunsThatReadIt) {

@@ -11,6 +11,7 @@
 
 #include "core/error.h"
 #include "experiments/problem/problem.h"
+#include "experiments/problem/reference_cache.h"
 #include "formfactor/methods/raycast.h"
 #include "scene/builtin/builtin_scenes.h"
 #include "scene/validate.h"
@@ -236,6 +237,58 @@ TEST(ReferenceCache, ReloadsCertifiedAndRejectsDamageAndStaleness) {
   auto other = prepare_problem(spec);
   EXPECT_TRUE(other->build.cached);
   EXPECT_EQ(other->reference->method.find("cached"), std::string::npos);
+}
+
+// The residual pass over a matrix in memory is the pass over rows on the fly, term for term: on an
+// occluded scene, where raycast's one-process build shares each pair's visibility between its two
+// rows, the stored pass (matrix_check) and the streamed one (streamed_check) agree bit for bit,
+// which is what lets a run with rows on the fly trust the pass stored with the reference.
+TEST(ReferenceCache, MatrixPassEqualsThePassOverRowsOnTheFly) {
+  Scene scene = make_builtin_scene("cornell");
+  validate_scene(scene);
+  Mesh mesh = build_mesh(scene, {2, 0.0});
+  RaycastFormFactors ff(scene, mesh, RaycastOptions{});
+  BuildReport report;
+  FormFactorMatrix matrix = build_matrix(ff, mesh.size(), Precision::kDouble, report);
+  System system(scene, mesh, matrix);
+  Reference ref = compute_reference(system, matrix);
+  const StreamedCheck dense = matrix_check(system, matrix, ref.B);
+  const StreamedCheck streamed = streamed_check(system, ff, ref.B);
+  ASSERT_EQ(dense.residual.size(), 3u);
+  EXPECT_EQ(dense.residual, streamed.residual);
+  EXPECT_EQ(dense.row_sum, streamed.row_sum);
+  EXPECT_EQ(dense.emitter_sum, streamed.emitter_sum);
+  // And the residual is residual_inf's (the certificate's own arithmetic).
+  EXPECT_EQ(dense.residual, residual_inf(system, matrix, ref.B));
+}
+
+// A stored pass is of one solution under one key: another B (one element changed by one ulp) or a
+// damaged file is refused, never used.
+TEST(ReferenceCache, StoredPassIsBoundToItsSolutionAndChecksum) {
+  testing::TempDir dir;
+  Built b = build("cube:rho=0.5", 2);
+  System system(b.scene, b.mesh, b.matrix);
+  Reference ref = compute_reference(system, b.matrix);
+  ReferenceCache cache(dir.path());
+  MatrixCacheKey matrix_key = matrix_cache_key(b.mesh, "raycast", "test", Precision::kDouble);
+  const ReferenceCacheKey key = reference_cache_key(matrix_key, false, system, {});
+  const StreamedCheck check = matrix_check(system, b.matrix, ref.B);
+  ASSERT_TRUE(cache.store_check(key, ref.B, check));
+  auto back = cache.load_check(key, ref.B);
+  ASSERT_TRUE(back.has_value());
+  EXPECT_EQ(back->residual, check.residual);
+  EXPECT_EQ(back->row_sum, check.row_sum);
+  Radiosity other = ref.B;
+  other.at(0, 3) = std::nextafter(other.at(0, 3), 2.0);
+  EXPECT_FALSE(cache.load_check(key, other).has_value());  // refused and deleted
+  EXPECT_FALSE(std::filesystem::exists(cache.check_path(key)));
+  ASSERT_TRUE(cache.store_check(key, ref.B, check));
+  {
+    std::fstream f(cache.check_path(key), std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(-30, std::ios::end);
+    f.put('\x5a');
+  }
+  EXPECT_FALSE(cache.load_check(key, ref.B).has_value());
 }
 
 // recertify_reference refuses a solution that is not the system's.
