@@ -127,6 +127,34 @@ TEST(MatrixFreePreparation, StoredResidualPassCertifiesLikeTheRowsOnTheFly) {
   EXPECT_EQ(damaged->reference->residual_inf, streamed->reference->residual_inf);
 }
 
+// The physical checks of a reference certified without the matrix are the dense build's: raycast
+// rows of the Cornell box at subdiv 3 sum to 1.0015, above the common stated error (1e-4) but
+// within their own rows' sampling allowance, which the dense check grants; the check from the
+// stored pass and from rows on the fly must grant it too (they refused these rows before).
+TEST(MatrixFreePreparation, RowSumChecksWithoutTheMatrixAreTheDenseOnes) {
+  testing::TempDir cache;
+  ProblemSpec spec;
+  spec.scene = "builtin:cornell";
+  spec.mesh.subdivisions = 3;
+  spec.cache_dir = cache.path().string();
+  auto dense = prepare_run_problem(spec, ReferenceChoice{}, Budget{}, false);
+  ASSERT_TRUE(did(*dense, "matrix built"));
+  ASSERT_GT(dense->row_sums.row_sum_max, 1.0 + dense->row_sums.stated_error);
+  ASSERT_TRUE(dense->row_sums.per_row);
+  ASSERT_EQ(dense->row_sums.rows_above, 0u);
+  auto checked = prepare_run_problem(spec, ReferenceChoice{}, Budget{}, false);
+  ASSERT_EQ(checked->preparation, std::vector<std::string>{"reference checked"});
+  std::filesystem::remove(check_files(cache).front());
+  auto streamed = prepare_run_problem(spec, ReferenceChoice{}, Budget{}, false);
+  ASSERT_EQ(streamed->preparation, std::vector<std::string>{"reference streamed"});
+  for (const Problem* p : {checked.get(), streamed.get()}) {
+    EXPECT_TRUE(p->row_sums.per_row);
+    EXPECT_EQ(p->row_sums.stated_error, dense->row_sums.stated_error);
+    EXPECT_EQ(p->row_sums.rows_above, 0u);
+    EXPECT_EQ(p->row_sums.row_sum_max, dense->row_sums.row_sum_max);
+  }
+}
+
 TEST(SecondsWithSetup, ChargesTheMatrixBuildOnlyToRunsThatReadIt) {
   testing::TempDir cache;
   auto p = prepare_run_problem(cube_spec(cache), ReferenceChoice{}, Budget{}, true);
