@@ -11,7 +11,9 @@ run's own, and appends a row to OUT/floors_scaling.csv as soon as the run ends (
 keeps what it measured). It records the load average before and after each run: the machine may
 be shared, and the user CPU time is then the steadier figure. Unclustered hierarchical tests
 every pair of root polygons, so its time grows with the square of the count: a size whose time,
-extrapolated quadratically from the last one measured, passes --max-seconds (300) is not run.
+extrapolated quadratically from the last one measured, passes --max-seconds (300) is not run
+(at the default patch 0.5, whose polygon count 1,856 K + 96 is known before the run; at another
+patch every size is run).
 Rows already in the CSV are kept and not run again (delete the file to start afresh).
 
 `plot` fits y ~ C s^p to links, refinement tests, user CPU seconds and peak RSS against the
