@@ -2,8 +2,8 @@
 // K storeys are ~470 K polygons) for K = 1, 2, 4, 8, 16, with and without clustering; one whole
 // solve each, links, refinement tests, rays, seconds and peak RSS as counters. After the runs the
 // growth exponents of links, refinement tests and solve time in the polygon count s are fitted
-// with the Ceres fit of metrics/convergence_fit.h (log 1/y = a - p log s, all points, a wide
-// Cauchy scale so it is nearly least squares) and printed with their 1-sigma uncertainties: Smits
+// with the Ceres fit of metrics/power_law_fit.h (log y = log C + p log s, all points, nearly
+// least squares) and printed with their 1-sigma uncertainties: Smits
 // et al.'s O(s log s) linking against the unclustered O(s^2).
 //   build/bench/bench_hierarchical_scaling --benchmark_counters_tabular=true
 #include <benchmark/benchmark.h>
@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "formfactor/methods/raycast.h"
-#include "metrics/convergence_fit.h"
+#include "metrics/power_law_fit.h"
 #include "scene/builtin/builtin_scenes.h"
 #include "scene/validate.h"
 #include "solvers/registry.h"
@@ -84,25 +84,19 @@ BENCHMARK_CAPTURE(BM_Floors, isotropic, std::string("isotropic"))
     ->Unit(benchmark::kSecond);
 
 void print_exponents() {
-  FitOptions options;
-  options.tail_fraction = 1.0;
-  options.min_points = 3;
-  options.loss_scale = 10.0;
   for (const auto& [clustering, list] : points()) {
-    std::vector<double> x, links, tests, seconds;
+    std::vector<double> s, links, tests, seconds;
     for (const Point& p : list) {
-      x.push_back(std::log(p.polygons));
-      // The fit is for decreasing errors (convergence traces): it is given 1/y, whose log rate
-      // is minus the exponent.
-      links.push_back(1.0 / p.links);
-      tests.push_back(1.0 / p.tests);
-      seconds.push_back(1.0 / p.seconds);
+      s.push_back(p.polygons);
+      links.push_back(p.links);
+      tests.push_back(p.tests);
+      seconds.push_back(p.seconds);
     }
     auto show = [&](const char* what, const std::vector<double>& y) {
-      const ConvergenceFit fit = fit_convergence(x, y, 1.0, options);
+      const PowerLawFit fit = fit_power_law(s, y);
       if (fit.valid)
         std::printf("clustering=%s: %s ~ s^%.3f +- %.3f (%d points)\n", clustering.c_str(), what,
-                    -fit.log_rate, fit.log_rate_sigma, fit.points);
+                    fit.exponent, fit.exponent_sigma, fit.points);
       else
         std::printf("clustering=%s: %s: no fit (%s)\n", clustering.c_str(), what,
                     fit.reason.c_str());
