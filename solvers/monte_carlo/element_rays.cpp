@@ -85,18 +85,27 @@ uint32_t ElementRays::cast(const Ray& ray) const {
   return kMiss;
 }
 
-void ElementRays::cast(std::span<const Ray> rays, uint32_t* out) const {
-  for (size_t k = 0; k < rays.size(); ++k) {
-    const RayHit hit = embree_->intersect(rays[k].origin, rays[k].direction, t_near_, 1e30);
-    out[k] = hit.hit ? hit.element : kMiss;
-  }
-  for (size_t k = 0; k < rays.size(); ++k) {
-    if (out[k] == kMiss) continue;
-    const Target& met = targets_[out[k]];
-    if (met.polygon == rays[k].polygon)
-      out[k] = cast(rays[k]);  // rare: the single-ray path goes on past the own polygon
-    else if (!(glm::dot(rays[k].direction, met.normal) < 0.0))
-      out[k] = kMiss;  // a back face absorbs
+void ElementRays::add(size_t source, const double* u, Batch& batch) const {
+  const Ray r = ray(source, u);
+  const size_t k = batch.size++;
+  batch.origin[k] = r.origin;
+  batch.direction[k] = r.direction;
+  batch.polygon[k] = r.polygon;
+}
+
+void ElementRays::cast(const Batch& batch, uint32_t* out) const {
+  RayHit hits[Batch::kCapacity];
+  embree_->intersect_stream(batch.origin, batch.direction, batch.size, t_near_, 1e30, hits);
+  for (size_t k = 0; k < batch.size; ++k) {
+    if (!hits[k].hit) {
+      out[k] = kMiss;
+      continue;
+    }
+    const Target& met = targets_[hits[k].element];
+    if (met.polygon == batch.polygon[k])  // rare: the single-ray path goes on past the own polygon
+      out[k] = cast(Ray{batch.origin[k], batch.direction[k], batch.polygon[k]});
+    else  // a back face absorbs
+      out[k] = glm::dot(batch.direction[k], met.normal) < 0.0 ? hits[k].element : kMiss;
   }
 }
 

@@ -118,17 +118,18 @@ uint64_t PowerPropagation::propagate(const Radiosity& x, uint64_t rays, UniformS
     for (size_t k = 0; k < count; ++k)
       sorted_source[k] = uint32_t(sources.pick(sorted_u[k * kDimensions]));
     tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 256), [&](const auto& range) {
-      // In batches of 64 rays made before any is cast (element_rays.h's batch cast).
-      constexpr size_t kBatch = 64;
-      std::array<ElementRays::Ray, kBatch> batch;
+      // In batches made before any is cast (element_rays.h's batch cast).
+      constexpr size_t kBatch = ElementRays::Batch::kCapacity;
+      ElementRays::Batch batch;
       for (size_t k = range.begin(); k < range.end(); k += kBatch) {
         const size_t size = std::min(kBatch, range.end() - k);
+        batch.size = 0;
         for (size_t b = 0; b < size; ++b) {
           // The record of the source 8 rays on is fetched while this ray is made.
           if (k + b + 8 < range.end()) rays_.prefetch(sorted_source[k + b + 8]);
-          batch[b] = rays_.ray(sorted_source[k + b], &sorted_u[(k + b) * kDimensions]);
+          rays_.add(sorted_source[k + b], &sorted_u[(k + b) * kDimensions], batch);
         }
-        rays_.cast(std::span(batch.data(), size), &hit[k]);
+        rays_.cast(batch, &hit[k]);
       }
     });
     for (size_t k = 0; k < count; ++k) {
