@@ -56,8 +56,13 @@ class ElementRays {
   // records are then independent of one another and overlap; after each hit in turn they
   // stalled the next ray behind a cache miss (bench_monte_carlo).
   void cast(const Batch& batch, uint32_t* out) const;
-  // A hint that ray(source, ...) comes soon: its record is fetched meanwhile.
-  void prefetch(size_t source) const { __builtin_prefetch(&sources_[source]); }
+  // A hint that ray(source, ...) comes soon: its record is fetched meanwhile, every cache line
+  // of it (the frame and the triangles' shares lie past the first line; fetching the first
+  // alone left the ray waiting on the last one, `perf annotate`).
+  void prefetch(size_t source) const {
+    const char* record = reinterpret_cast<const char*>(&sources_[source]);
+    for (size_t line = 0; line < sizeof(Source); line += 64) __builtin_prefetch(record + line);
+  }
 
  private:
   // What a ray from an element needs, in one place: a ray's origin and direction then cost one
@@ -67,7 +72,7 @@ class ElementRays {
   // triangle's share of the area; other polygons (unsplit n-gons) go through point_on_element.
   // The frame of the cosine directions is kept too (frame_about: a division per ray otherwise),
   // and the two triangles' shares as the factors that rescale u1 within each.
-  struct Source {
+  struct alignas(64) Source {  // on cache-line bounds: four lines, not five
     Vec3 a, b, c, d, normal, tangent, bitangent;
     double first_share = 1.0;   // of the area, the first triangle's
     double first_scale = 1.0;   // 1 / first_share
