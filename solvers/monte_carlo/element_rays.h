@@ -38,24 +38,35 @@ class ElementRays {
   };
   Ray ray(size_t source, const double* u) const;
   uint32_t cast(const Ray& ray) const;
-  // Up to kCapacity rays, fields apart: Embree's stream call reads the origins and directions
-  // straight from here.
+  // Up to kCapacity rays, fields apart: the numbers of the directions side by side, so that
+  // the batch's directions are made in one loop the compiler vectorises (the division and the
+  // polynomials of cosine_direction_local two rays at a time), and Embree's stream call reads
+  // the origins and directions straight from here.
   struct Batch {
     static constexpr size_t kCapacity = 64;
+    uint32_t source[kCapacity];
+    double u1[kCapacity], u2[kCapacity], u3[kCapacity], u4[kCapacity];
     Vec3 origin[kCapacity], direction[kCapacity];
     uint32_t polygon[kCapacity];  // the sources'
     size_t size = 0;
   };
-  // Appends ray(source, u) to `batch` (which must have room).
-  void add(size_t source, const double* u, Batch& batch) const;
-  // out[k] = cast of the batch's ray k for every k, in two passes: all of Embree's closest hits
-  // first, through its stream call (rtcIntersect1M, flagged incoherent: on the step's rays 1.10x
-  // the rays per second of one rtcIntersect1 call each, which pays a context, a ray record and
-  // Embree's dispatch per ray; bench_monte_carlo: step 0.67 -> 0.72 of raw Embree), then the checks
-  // of the elements met (own polygon, front face). The checks' reads of the hit elements'
-  // records are then independent of one another and overlap; after each hit in turn they
-  // stalled the next ray behind a cache miss (bench_monte_carlo).
-  void cast(const Batch& batch, uint32_t* out) const;
+  // Appends the ray ray(source, u) would make to `batch` (which must have room); cast() makes it.
+  static void add(size_t source, const double* u, Batch& batch) {
+    const size_t k = batch.size++;
+    batch.source[k] = uint32_t(source);
+    batch.u1[k] = u[1];
+    batch.u2[k] = u[2];
+    batch.u3[k] = u[3];
+    batch.u4[k] = u[4];
+  }
+  // Makes the batch's rays (the same bits as ray()), then out[k] = cast of ray k for every k, in
+  // two passes: all of Embree's closest hits first, through its stream call (rtcIntersect1M,
+  // flagged incoherent: on the step's rays 1.10x the rays per second of one rtcIntersect1 call
+  // each, which pays a context, a ray record and Embree's dispatch per ray; bench_monte_carlo: step
+  // 0.67 -> 0.72 of raw Embree), then the checks of the elements met (own polygon, front face). The
+  // checks' reads of the hit elements' records are then independent of one another and overlap;
+  // after each hit in turn they stalled the next ray behind a cache miss (bench_monte_carlo).
+  void cast(Batch& batch, uint32_t* out) const;
   // A hint that ray(source, ...) comes soon: its record is fetched meanwhile, every cache line
   // of it (the frame and the triangles' shares lie past the first line; fetching the first
   // alone left the ray waiting on the last one, `perf annotate`).

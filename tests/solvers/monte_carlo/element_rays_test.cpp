@@ -1,8 +1,8 @@
 // The Monte Carlo solvers' element distribution (solvers/monte_carlo/element_rays.h): the guide
 // table finds, for every u, the element the plain binary search in the cumulative weights finds
 // (the first whose cumulative weight exceeds u * total), so its probabilities are the weights';
-// and a batch of rays cast through Embree's stream call meets, ray for ray, the element the
-// single-ray path meets.
+// and a batch of rays, made in a vectorised loop and cast through Embree's stream call, has ray
+// for ray the origin, direction and element of the single-ray path.
 #include "solvers/monte_carlo/element_rays.h"
 
 #include <gtest/gtest.h>
@@ -72,6 +72,13 @@ TEST(ElementRays, BatchCastMeetsWhatEachRayMeetsAlone) {
       std::vector<uint32_t> hit(size);
       rays.cast(batch, hit.data());
       for (size_t k = 0; k < size; ++k) {
+        // The batch's rays are made in a vectorised loop: the same bits as one ray alone.
+        const monte_carlo::ElementRays::Ray alone =
+            rays.ray(source[k], &u[k * monte_carlo::kDimensions]);
+        for (int c = 0; c < 3; ++c) {
+          ASSERT_EQ(batch.origin[k][c], alone.origin[c]) << k;
+          ASSERT_EQ(batch.direction[k][c], alone.direction[c]) << k;
+        }
         ASSERT_EQ(hit[k], rays.trace(source[k], &u[k * monte_carlo::kDimensions])) << k;
         misses += hit[k] == monte_carlo::ElementRays::kMiss ? 1 : 0;
         ++compared;
