@@ -92,6 +92,8 @@ class ElementRays {
     bool fan = false;  // false: an n-gon, sampled through point_on_element
   };
   Vec3 origin(const Source& s, size_t element, double u1, double u2) const;
+  // The point of a fan at triangle choice m and radius r (element_rays.cpp's fan_pick).
+  static Vec3 fan_point(const Source& s, double m, double r, double u2);
   // What a hit needs of the element met, apart (one cache line, not the source's three).
   struct Target {
     Vec3 normal;
