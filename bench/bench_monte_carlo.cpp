@@ -14,10 +14,14 @@
 //   - the same raw rays again, ordered by their source element as a step orders its rays (it
 //     sorts each block's rays by the number that picks the source, power_propagation.cpp):
 //     Embree alone on the step's order, to tell how much of the step's speed is the order's;
+//   - the same sorted rays through Embree's stream call (EmbreeScene::intersect_stream,
+//     rtcIntersect1M, incoherent), the call the step makes: Embree alone on the step's order
+//     and API;
 //   - one step of random-walk (shooting walks, collision estimator) of 2^15 walks, rays counted
 //     by the System.
-// Counters: sj_rays_per_s, embree_rays_per_s, embree_sorted_rays_per_s, rw_rays_per_s, and the
-// ratios sj_vs_embree (issue 32's target), sj_vs_embree_sorted and rw_vs_embree.
+// Counters: sj_rays_per_s, embree_rays_per_s, embree_sorted_rays_per_s,
+// embree_stream_sorted_rays_per_s, rw_rays_per_s, and the ratios sj_vs_embree (issue 32's
+// target), sj_vs_embree_sorted, sj_vs_embree_stream_sorted and rw_vs_embree.
 //
 // Run: build/bench/bench_monte_carlo --benchmark_counters_tabular=true
 #include <benchmark/benchmark.h>
@@ -33,6 +37,7 @@
 #include "core/param_bag.h"
 #include "core/random.h"
 #include "formfactor/methods/raycast.h"
+#include "formfactor/visibility/embree_scene.h"
 #include "solvers/monte_carlo/ray_sampler.h"
 #include "solvers/registry.h"
 #include "solvers/system.h"
@@ -107,7 +112,9 @@ void BM_StochasticJacobiAgainstRawEmbree(benchmark::State& state) {
   const RawRays raw = raw_rays(c.mesh, jacobi->solution());
   const RawRays sorted = by_source(raw);
   const double t_near = 1e-6;  // as the solvers' (a millionth of the box's ~1 m size)
-  double sj_seconds = 0.0, embree_seconds = 0.0, sorted_seconds = 0.0, rw_seconds = 0.0;
+  double sj_seconds = 0.0, embree_seconds = 0.0, sorted_seconds = 0.0, stream_seconds = 0.0;
+  double rw_seconds = 0.0;
+  std::vector<RayHit> stream_hits(kRays);
   uint64_t sj_rays = 0, embree_rays = 0, rw_rays = 0, hits = 0;
   for (auto _ : state) {
     uint64_t before = system.rays_used();
@@ -127,6 +134,12 @@ void BM_StochasticJacobiAgainstRawEmbree(benchmark::State& state) {
       hits += c.embree->intersect(sorted.origin[k], sorted.direction[k], t_near, 1e30).hit ? 1 : 0;
     sorted_seconds += thread_seconds(start);
 
+    start = thread_now();
+    c.embree->intersect_stream(sorted.origin.data(), sorted.direction.data(), kRays, t_near, 1e30,
+                               stream_hits.data());
+    stream_seconds += thread_seconds(start);
+    hits += stream_hits[kRays / 2].hit ? 1 : 0;
+
     before = system.rays_used();
     start = thread_now();
     walks->step();
@@ -137,12 +150,15 @@ void BM_StochasticJacobiAgainstRawEmbree(benchmark::State& state) {
   const double sj = double(sj_rays) / sj_seconds, embree = double(embree_rays) / embree_seconds;
   const double rw = double(rw_rays) / rw_seconds;
   const double embree_sorted = double(embree_rays) / sorted_seconds;
+  const double embree_stream = double(embree_rays) / stream_seconds;
   state.counters["sj_rays_per_s"] = sj;
   state.counters["embree_rays_per_s"] = embree;
   state.counters["rw_rays_per_s"] = rw;
   state.counters["embree_sorted_rays_per_s"] = embree_sorted;
   state.counters["sj_vs_embree"] = sj / embree;
+  state.counters["embree_stream_sorted_rays_per_s"] = embree_stream;
   state.counters["sj_vs_embree_sorted"] = sj / embree_sorted;
+  state.counters["sj_vs_embree_stream_sorted"] = sj / embree_stream;
   state.counters["rw_vs_embree"] = rw / embree;
 }
 BENCHMARK(BM_StochasticJacobiAgainstRawEmbree)->Unit(benchmark::kMillisecond)->MinTime(2.0);

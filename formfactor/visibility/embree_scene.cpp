@@ -2,6 +2,7 @@
 
 #include <embree3/rtcore.h>
 
+#include <algorithm>
 #include <cmath>
 #include <glm/geometric.hpp>
 #include <limits>
@@ -278,6 +279,44 @@ RayHit EmbreeScene::intersect(const Vec3& o, const Vec3& d, double t_near, doubl
   result.element = triangle_element_[rh.hit.primID];
   result.distance = double(rh.ray.tfar);
   return result;
+}
+
+void EmbreeScene::intersect_stream(const Vec3* origins, const Vec3* directions, size_t count,
+                                   double t_near, double t_far, RayHit* out) const {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  context.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  constexpr size_t kChunk = 64;
+  alignas(64) RTCRayHit rays[kChunk];
+  for (size_t first = 0; first < count; first += kChunk) {
+    const size_t size = std::min(kChunk, count - first);
+    for (size_t k = 0; k < size; ++k) {
+      RTCRayHit& rh = rays[k];
+      const Vec3& o = origins[first + k];
+      const Vec3& d = directions[first + k];
+      rh.ray.org_x = float(o.x);
+      rh.ray.org_y = float(o.y);
+      rh.ray.org_z = float(o.z);
+      rh.ray.dir_x = float(d.x);
+      rh.ray.dir_y = float(d.y);
+      rh.ray.dir_z = float(d.z);
+      rh.ray.tnear = float(t_near);
+      rh.ray.tfar = float(t_far);
+      rh.ray.time = 0.0f;
+      rh.ray.mask = 0xFFFFFFFFu;
+      rh.ray.id = unsigned(k);
+      rh.ray.flags = 0;
+      rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+      rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    }
+    rtcIntersect1M(impl_->scene, &context, rays, unsigned(size), sizeof(RTCRayHit));
+    for (size_t k = 0; k < size; ++k) {
+      const RTCRayHit& rh = rays[k];
+      out[first + k] = rh.hit.geomID == RTC_INVALID_GEOMETRY_ID
+                           ? RayHit{}
+                           : RayHit{true, triangle_element_[rh.hit.primID], double(rh.ray.tfar)};
+    }
+  }
 }
 
 }  // namespace radlab

@@ -71,6 +71,12 @@ class EmbreeScene {
   // The closest element hit by a ray, if any.
   RayHit intersect(const Vec3& origin, const Vec3& direction, double t_near, double t_far) const;
 
+  // The closest hits of `count` rays origins[k] + t directions[k], t in [t_near, t_far], through
+  // Embree's stream call (rtcIntersect1M, flagged incoherent: the rays point every way): out[k]
+  // as intersect() gives, without a call, a context and a ray record per ray.
+  void intersect_stream(const Vec3* origins, const Vec3* directions, size_t count, double t_near,
+                        double t_far, RayHit* out) const;
+
   size_t triangle_count() const { return triangle_element_.size(); }
 
  private:

@@ -46,17 +46,33 @@ ElementRays::ElementRays(const Mesh& mesh)
   }
 }
 
-Vec3 ElementRays::origin(const Source& s, size_t element, double u1, double u2) const {
-  if (!s.fan) return point_on_element(mesh_, element, u1, u2);
-  // The triangle by area, u1 rescaled to [0,1) within it (as point_on_element). Without a
-  // branch (which triangle is a coin toss on a quad): m is 1 or 0, and m x + (1 - m) y is x or y
-  // exactly. A triangle's share is 1, so m is 1 there.
-  const double m = u1 < s.first_share ? 1.0 : 0.0;
-  const double t = m * (u1 * s.first_scale) + (1.0 - m) * ((u1 - s.first_share) * s.second_scale);
-  const double r = std::sqrt(std::clamp(t, 0.0, 0x1.fffffffffffffp-1));
+namespace {
+
+// The fan's triangle by area and u1 rescaled to [0,1) within it (as point_on_element), as
+// m (1: the first triangle, 0: the second) and r, the square root that keeps the point uniform.
+// Without a branch (which triangle is a coin toss on a quad): m x + (1 - m) y is x or y exactly.
+// A triangle's share is 1, so m is 1 there.
+struct FanPick {
+  double m, r;
+};
+inline FanPick fan_pick(double u1, double first_share, double first_scale, double second_scale) {
+  const double m = u1 < first_share ? 1.0 : 0.0;
+  const double t = m * (u1 * first_scale) + (1.0 - m) * ((u1 - first_share) * second_scale);
+  return {m, std::sqrt(std::clamp(t, 0.0, 0x1.fffffffffffffp-1))};
+}
+
+}  // namespace
+
+Vec3 ElementRays::fan_point(const Source& s, double m, double r, double u2) {
   const Vec3 b = s.b * m + s.c * (1.0 - m);
   const Vec3 c = s.c * m + s.d * (1.0 - m);
   return s.a * (1.0 - r) + b * (r * (1.0 - u2)) + c * (r * u2);
+}
+
+Vec3 ElementRays::origin(const Source& s, size_t element, double u1, double u2) const {
+  if (!s.fan) return point_on_element(mesh_, element, u1, u2);
+  const FanPick pick = fan_pick(u1, s.first_share, s.first_scale, s.second_scale);
+  return fan_point(s, pick.m, pick.r, u2);
 }
 
 ElementRays::Ray ElementRays::ray(size_t source, const double* u) const {
@@ -85,18 +101,50 @@ uint32_t ElementRays::cast(const Ray& ray) const {
   return kMiss;
 }
 
-void ElementRays::cast(std::span<const Ray> rays, uint32_t* out) const {
-  for (size_t k = 0; k < rays.size(); ++k) {
-    const RayHit hit = embree_->intersect(rays[k].origin, rays[k].direction, t_near_, 1e30);
-    out[k] = hit.hit ? hit.element : kMiss;
+void ElementRays::cast(Batch& batch, uint32_t* out) const {
+  // In three loops. The sources' triangle shares first (the gathers). Then every ray's
+  // direction about +z and triangle choice at once: no memory access but arrays, no branch, so
+  // the loop runs two rays to an instruction (SSE2; CMakeLists.txt lets this file if-convert and
+  // vectorise: no errno from sqrt, no trapping compares, no contraction): the division, the
+  // sin/cos polynomials and both square roots were most of a ray's making (perf annotate). Then
+  // each ray's origin and direction from its source's points and frame.
+  constexpr size_t n = Batch::kCapacity;
+  double share[n], first_scale[n], second_scale[n];
+  for (size_t k = 0; k < batch.size; ++k) {
+    const Source& s = sources_[batch.source[k]];
+    share[k] = s.first_share;
+    first_scale[k] = s.first_scale;
+    second_scale[k] = s.second_scale;
   }
-  for (size_t k = 0; k < rays.size(); ++k) {
-    if (out[k] == kMiss) continue;
-    const Target& met = targets_[out[k]];
-    if (met.polygon == rays[k].polygon)
-      out[k] = cast(rays[k]);  // rare: the single-ray path goes on past the own polygon
-    else if (!(glm::dot(rays[k].direction, met.normal) < 0.0))
-      out[k] = kMiss;  // a back face absorbs
+  double x[n], y[n], z[n], m[n], r[n];
+  for (size_t k = 0; k < batch.size; ++k) {
+    const Vec3 local = cosine_direction_local(batch.u3[k], batch.u4[k]);
+    x[k] = local.x;
+    y[k] = local.y;
+    z[k] = local.z;
+    const FanPick pick = fan_pick(batch.u1[k], share[k], first_scale[k], second_scale[k]);
+    m[k] = pick.m;
+    r[k] = pick.r;
+  }
+  for (size_t k = 0; k < batch.size; ++k) {
+    const Source& s = sources_[batch.source[k]];
+    batch.origin[k] = s.fan ? fan_point(s, m[k], r[k], batch.u2[k])
+                            : point_on_element(mesh_, batch.source[k], batch.u1[k], batch.u2[k]);
+    batch.direction[k] = s.tangent * x[k] + s.bitangent * y[k] + s.normal * z[k];
+    batch.polygon[k] = s.polygon;
+  }
+  RayHit hits[Batch::kCapacity];
+  embree_->intersect_stream(batch.origin, batch.direction, batch.size, t_near_, 1e30, hits);
+  for (size_t k = 0; k < batch.size; ++k) {
+    if (!hits[k].hit) {
+      out[k] = kMiss;
+      continue;
+    }
+    const Target& met = targets_[hits[k].element];
+    if (met.polygon == batch.polygon[k])  // rare: the single-ray path goes on past the own polygon
+      out[k] = cast(Ray{batch.origin[k], batch.direction[k], batch.polygon[k]});
+    else  // a back face absorbs
+      out[k] = glm::dot(batch.direction[k], met.normal) < 0.0 ? hits[k].element : kMiss;
   }
 }
 

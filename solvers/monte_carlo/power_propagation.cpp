@@ -101,37 +101,39 @@ uint64_t PowerPropagation::propagate(const Radiosity& x, uint64_t rays, UniformS
   received.assign(n * cell, 0.0);
   for (size_t j = 0; j < n; ++j) std::copy_n(&gain_[j * stride], stride, &received[j * cell]);
 
-  std::vector<double>&u = scratch_.u, &sorted_u = scratch_.sorted_u;
+  std::vector<double>& u = scratch_.u;
   std::vector<uint32_t>&order = scratch_.order, &scratch = scratch_.scratch, &key = scratch_.key;
   std::vector<uint32_t>&sorted_source = scratch_.sorted_source, &hit = scratch_.hit;
   for (uint64_t first = 0; first < rays; first += kBlockRays) {
     const size_t count = size_t(std::min(kBlockRays, rays - first));
     u.resize(count * kDimensions);
-    sorted_u.resize(count * kDimensions);
     sorted_source.resize(count);
     hit.resize(count);
     stream.fill((*block)++, u);
     order_by_first_number(u, count, n, order, scratch, key);
-    // The rays' numbers in that order (independent reads, which overlap), then their sources.
+    // The rays' sources in that order.
     for (size_t k = 0; k < count; ++k)
-      std::copy_n(&u[size_t(order[k]) * kDimensions], kDimensions, &sorted_u[k * kDimensions]);
-    for (size_t k = 0; k < count; ++k)
-      sorted_source[k] = uint32_t(sources.pick(sorted_u[k * kDimensions]));
+      sorted_source[k] = uint32_t(sources.pick(u[size_t(order[k]) * kDimensions]));
     tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 256), [&](const auto& range) {
-      // In batches of 64 rays made before any is cast (element_rays.h's batch cast).
-      constexpr size_t kBatch = 64;
-      std::array<ElementRays::Ray, kBatch> batch;
+      // In batches made before any is cast (element_rays.h's batch cast).
+      constexpr size_t kBatch = ElementRays::Batch::kCapacity;
+      ElementRays::Batch batch;
       for (size_t k = range.begin(); k < range.end(); k += kBatch) {
         const size_t size = std::min(kBatch, range.end() - k);
+        batch.size = 0;
         for (size_t b = 0; b < size; ++b) {
           // The record of the source 8 rays on is fetched while this ray is made.
           if (k + b + 8 < range.end()) rays_.prefetch(sorted_source[k + b + 8]);
-          batch[b] = rays_.ray(sorted_source[k + b], &sorted_u[(k + b) * kDimensions]);
+          ElementRays::add(sorted_source[k + b], &u[size_t(order[k + b]) * kDimensions], batch);
         }
-        rays_.cast(std::span(batch.data(), size), &hit[k]);
+        rays_.cast(batch, &hit[k]);
       }
     });
     for (size_t k = 0; k < count; ++k) {
+      // The record of the element met 8 rays on is fetched while this ray deposits (the hits
+      // are scattered: the deposit waited on a cache miss, `perf annotate`).
+      if (k + 8 < count && hit[k + 8] != ElementRays::kMiss)
+        __builtin_prefetch(&received[size_t(hit[k + 8]) * cell]);
       if (hit[k] == ElementRays::kMiss) continue;
       const double* from = &carried[size_t(sorted_source[k]) * stride];
       double* to = &received[size_t(hit[k]) * cell];

@@ -58,7 +58,7 @@ class PowerPropagation {
   // propagate() must not run on one object from two threads at once (the solvers call it from
   // one).
   struct Scratch {
-    std::vector<double> weight, carried, received, u, sorted_u;
+    std::vector<double> weight, carried, received, u;
     std::vector<uint32_t> order, scratch, key, sorted_source, hit;
   };
   mutable Scratch scratch_;

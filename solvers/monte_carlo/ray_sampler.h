@@ -73,7 +73,9 @@ inline Vec3 cosine_direction_local(double u1, double u2) {
   const double m = std::abs(x) > std::abs(y) ? 1.0 : 0.0;
   const double r = m * x + (1.0 - m) * y;  // the larger in size (0 only at the centre)
   const double other = m * y + (1.0 - m) * x;
-  const double theta = r != 0.0 ? (std::numbers::pi / 4.0) * (other / r) : 0.0;
+  // theta = pi/4 other/r, 0 at the centre, without a division by zero (nor a branch).
+  const double safe_r = r != 0.0 ? r : 1.0;
+  const double theta = r != 0.0 ? (std::numbers::pi / 4.0) * (other / safe_r) : 0.0;
   double sine = 0.0, cosine = 1.0;
   sin_cos_quarter(theta, sine, cosine);
   // At angle theta from the x axis when |x| is the larger, else pi/2 - theta (sin, cos swap).
