@@ -386,9 +386,15 @@ void Refiner::refine_clustered(const Node& p, const Node& q, Known known,
   // above one another, blocked by the slab on every sample, see each other through the atrium;
   // dropping every such pair doubled the building's rms error). With m facing segments all
   // blocked, 1 / (m + 2) (Laplace's rule of succession) stands for V: the pair is dropped when
-  // the estimate times that is below feps, else opened.
+  // the estimate times that is below feps, else opened. Oriented clusters treat such a pair as
+  // a partly visible one instead (dropped only when kPartialPenalty times the estimate is below
+  // feps, else opened down to pairs whose own rays decide): 16 segments between two clusters
+  // sample few of their members' pairs, and the light of the pairs dropped by Laplace's rule
+  // was hosp.mgf's largest clustered loss (docs/solvers.md, "Clustering measured").
   const double e_max = std::max(error(p.key, q.key, est_pq), error(q.key, p.key, est_qp));
-  if (free == 0 && e_max / double(facing + 2) < c_.feps) {
+  const double blocked_bound =
+      clusters_->oriented() ? kPartialPenalty * e_max : e_max / double(facing + 2);
+  if (free == 0 && blocked_bound < c_.feps) {
     ++(facing > 0 ? stats.occluded : stats.facing_away);
     return;
   }

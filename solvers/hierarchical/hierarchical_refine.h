@@ -45,7 +45,9 @@
 // ClusterTree::projected_area_bound (a surface: A cos(max(θ - spread, 0))), the receiver's
 // factor likewise (a cluster's bound over its area, a surface's cosine), and
 // F <= received * P / (π d² + P). An upper bound of the polygons' exact projected areas over the
-// cone (the remainder past the normal list counted whole), not of visibility.
+// cone (the remainder past the normal list counted whole), not of visibility. A pair of
+// clusters whose every facing segment is blocked is dropped only when kPartialPenalty times its
+// estimate is below feps (isotropic: the estimate over m + 2, Laplace's rule), else opened.
 //
 // Work charged: 2 element-pair form factors per refinement test (the two estimates) and 2 per
 // link (its two transfer factors).
