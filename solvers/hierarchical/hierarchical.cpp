@@ -28,18 +28,20 @@
 //   one gather + push/pull pass over all links and nodes. Work charged: 2 element-pair form
 //   factors per refinement test and per link made, 2 per link per gather pass (a link's two
 //   factors, the unit of a flat row's n), 16 rays per visibility test.
-// Clustering (clustering=isotropic; Smits, Arvo & Greenberg 1994, Sillion 1995): the charts are
+// Clustering (clustering=isotropic|oriented; Smits, Arvo & Greenberg 1994, Sillion 1995): the
+//   charts are
 //   grouped by a binary bounding-volume hierarchy built with Embree's rtcBuildBVH (binned SAH;
 //   hierarchical_clusters.h), and refinement starts from one link, the root cluster with itself,
 //   instead of the n(n-1)/2 pairs of roots: its self link opens into the n - 1 pairs of sibling
 //   children (hierarchical_refine.h), refined in parallel in preorder. Cluster ends use the
-//   isotropic kernel (a point of projected area A/4) with an estimate bounded over the two
+//   isotropic kernel (a point of projected area A/4) or the oriented one (the projected area of
+//   its polygons, from a list of distinct normals) with an estimate bounded over the two
 //   bounding spheres, clusters open before polygons, visibility between clusters by 16 segments
 //   between points on their charts (Embree), and gathers push a cluster's light to all its charts
 //   and pull its B as their area average (hierarchical_hierarchy.h). clustering=none (the
 //   default) makes exactly the unclustered links, the same bits as before clustering existed.
-// Left out: oriented (Sillion's anisotropic) clusters, lazy linking, shooting, and error-driven
-//   (rather than F- or BF-driven) oracles.
+// Left out: a per-orientation push (a cluster's gathered light goes to every member alike),
+//   lazy linking, shooting, and error-driven (rather than F- or BF-driven) oracles.
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -82,7 +84,7 @@ struct HierarchicalOptions {
     o.order = bag.get_choice("order", o.order, {"jacobi", "gauss-seidel"});
     o.rows = bag.get_choice("rows", o.rows, {"leaf", "balanced", "links"});
     o.seed = bag.get_int("seed", o.seed);
-    o.clustering = bag.get_choice("clustering", o.clustering, {"none", "isotropic"});
+    o.clustering = bag.get_choice("clustering", o.clustering, {"none", "isotropic", "oriented"});
     o.validate();
     return o;
   }
@@ -131,7 +133,8 @@ class HierarchicalSolver final : public Solver {
     const Scene& scene = system.scene();
     charts_ = make_charts(scene);
     elements_ = element_charts(scene, system.mesh(), charts_);
-    clusters_ = o_.clustering == "isotropic" ? build_clusters(charts_) : ClusterTree{};
+    clusters_ = o_.clustering != "none" ? build_clusters(charts_, o_.clustering == "oriented")
+                                        : ClusterTree{};
     visibility_ = std::make_unique<NodeVisibility>(scene);
     channels_ = system.channels();
     chart_emission_.clear();
@@ -439,7 +442,8 @@ SolverInfo hierarchical_solver_info() {
            {"clustering", "",
             "none: refine every pair of polygons; isotropic: start from the root of a cluster "
             "hierarchy (Embree rtcBuildBVH) linked to itself, isotropic clusters (Smits et al. "
-            "1994, Sillion 1995)"}},
+            "1994, Sillion 1995); oriented: the same with each cluster's projected area that of "
+            "its polygons (up to 16 distinct normals exact, the rest isotropic)"}},
           [](ParamBag& bag) -> std::unique_ptr<Solver> {
             return std::make_unique<HierarchicalSolver>(HierarchicalOptions::from(bag));
           }};

@@ -12,7 +12,40 @@ namespace radlab::hier {
 
 size_t ClusterTree::memory_bytes() const {
   return clusters.size() * sizeof(Cluster) + order.size() * sizeof(uint32_t) +
-         cumulative_area.size() * sizeof(double) + chart_parent.size() * sizeof(int32_t);
+         cumulative_area.size() * sizeof(double) + chart_parent.size() * sizeof(int32_t) +
+         normal_first.size() * sizeof(uint32_t) + normal.size() * sizeof(Vec3) +
+         (normal_area.size() + rest_area.size()) * sizeof(double);
+}
+
+double ClusterTree::projected_area(uint32_t c, const Vec3& w) const {
+  if (!oriented()) return 0.25 * clusters[c].area;
+  double p = 0.25 * rest_area[c];
+  for (uint32_t k = normal_first[c]; k < normal_first[c + 1]; ++k)
+    p += normal_area[k] * std::max(0.0, glm::dot(normal[k], w));
+  return p;
+}
+
+double ClusterTree::projected_area_bound(uint32_t c, const Vec3& w, double spread) const {
+  double p = rest_area[c];
+  for (uint32_t k = normal_first[c]; k < normal_first[c + 1]; ++k) {
+    // The angle between the normal and w, less the spread: the smallest angle the normal makes
+    // with a direction of the cone.
+    const double angle = std::acos(std::clamp(glm::dot(normal[k], w), -1.0, 1.0)) - spread;
+    if (angle < 0.5 * std::numbers::pi) p += normal_area[k] * std::cos(std::max(angle, 0.0));
+  }
+  return p;
+}
+
+double ClusterTree::point_factor(uint32_t c, const Vec3& x, const Vec3& n) const {
+  const Cluster& cl = clusters[c];
+  if (!oriented()) return isotropic_point_factor(x, n, cl.centre, cl.area);
+  const Vec3 d = cl.centre - x;
+  const double r2 = glm::dot(d, d);
+  if (!(r2 > 0.0)) return 0.0;
+  const double r = std::sqrt(r2);
+  const double cosine = std::max(0.0, glm::dot(n, d)) / r;
+  if (cosine == 0.0) return 0.0;
+  return projected_area(c, -d / r) * cosine / (std::numbers::pi * r2);
 }
 
 Vec3 ClusterTree::sample(const std::vector<Chart>& charts, uint32_t c, int k, int strata, double u0,
@@ -133,9 +166,55 @@ void measure_clusters(ClusterTree& t, const std::vector<Chart>& charts,
   }
 }
 
+// Oriented clusters' normal lists, children before parents: a chart contributes its normal and
+// area, a cluster its children's lists merged (left child first, then right, in list order, so
+// the result does not depend on threads or hashing); past kOrientedNormals, the normals of
+// largest area are kept (ties by list order) and the rest join the isotropic remainder.
+void orient_clusters(ClusterTree& t, const std::vector<Chart>& charts) {
+  const size_t n = t.clusters.size();
+  std::vector<std::vector<std::pair<Vec3, double>>> lists(n);
+  std::vector<double> rest(n, 0.0);
+  for (size_t i = n; i-- > 0;) {
+    std::vector<std::pair<Vec3, double>>& list = lists[i];
+    auto add = [&](const Vec3& normal, double area) {
+      if (!(area > 0.0)) return;  // a degenerate chart has no normal and sends nothing
+      for (auto& [m, a] : list)
+        if (glm::dot(m, normal) > 1.0 - 1e-9) {
+          a += area;
+          return;
+        }
+      list.emplace_back(normal, area);
+    };
+    for (int k = 0; k < 2; ++k) {
+      const int32_t ch = t.clusters[i].child[k];
+      if (ch >= 0) {
+        for (const auto& [m, a] : lists[size_t(ch)]) add(m, a);
+        rest[i] += rest[size_t(ch)];
+      } else {
+        add(charts[size_t(~ch)].normal, charts[size_t(~ch)].area);
+      }
+    }
+    if (list.size() > kOrientedNormals) {
+      std::stable_sort(list.begin(), list.end(),
+                       [](const auto& a, const auto& b) { return a.second > b.second; });
+      for (size_t k = kOrientedNormals; k < list.size(); ++k) rest[i] += list[k].second;
+      list.resize(kOrientedNormals);
+    }
+  }
+  t.normal_first.assign(n + 1, 0);
+  for (size_t i = 0; i < n; ++i) {
+    t.normal_first[i + 1] = t.normal_first[i] + uint32_t(lists[i].size());
+    for (const auto& [m, a] : lists[i]) {
+      t.normal.push_back(m);
+      t.normal_area.push_back(a);
+    }
+  }
+  t.rest_area = std::move(rest);
+}
+
 }  // namespace
 
-ClusterTree build_clusters(const std::vector<Chart>& charts) {
+ClusterTree build_clusters(const std::vector<Chart>& charts, bool oriented) {
   ClusterTree t;
   t.chart_parent.assign(charts.size(), -1);
   const std::vector<BvhBox> boxes = chart_boxes(charts);
@@ -150,6 +229,7 @@ ClusterTree build_clusters(const std::vector<Chart>& charts) {
   for (size_t k = 0; k < t.order.size(); ++k)
     t.cumulative_area[k + 1] = t.cumulative_area[k] + charts[t.order[k]].area;
   measure_clusters(t, charts, boxes);
+  if (oriented && !t.clusters.empty()) orient_clusters(t, charts);
   return t;
 }
 

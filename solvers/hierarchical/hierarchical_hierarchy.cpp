@@ -92,6 +92,7 @@ Hierarchy build_hierarchy(const std::vector<Chart>& charts, const std::vector<Li
   }
   // Clusters: parents, children (a chart child is its root node) and areas, children first.
   h.cluster_centre.resize(NC);
+  h.cluster_tree = NC > 0 ? clusters : nullptr;
   for (size_t c = 0; c < NC; ++c) {
     const Cluster& cl = clusters->clusters[c];
     h.parent[c] = cl.parent;

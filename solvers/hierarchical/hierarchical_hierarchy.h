@@ -57,8 +57,9 @@ struct Hierarchy {
   // the links read B itself.
   std::vector<double> send_scale, S;
   size_t leaves = 0;
-  size_t clusters = 0;               // nodes [0, clusters) are clusters
-  std::vector<Vec3> cluster_centre;  // per cluster
+  size_t clusters = 0;                        // nodes [0, clusters) are clusters
+  std::vector<Vec3> cluster_centre;           // per cluster
+  const ClusterTree* cluster_tree = nullptr;  // the clusters' tree (nullptr: none)
 
   size_t size() const { return key.size(); }
   bool balanced() const { return !send_scale.empty(); }

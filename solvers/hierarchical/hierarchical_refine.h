@@ -38,6 +38,17 @@
 // dropped by the plane test. Transfer factors: the isotropic kernels (hierarchical_clusters.h),
 // a surface end by its 2 x 2 rule, the other way by reciprocity, times V.
 //
+// Oriented clusters (`clustering=oriented`): the kernels take each cluster's projected area
+// toward the other end (ClusterTree::projected_area), and the estimate bounds the oriented
+// kernel over the two spheres: with w the line of centres and `spread` = asin((r_R + r_S) / D)
+// the half-angle of every direction between them, the source's projected area is bounded by
+// ClusterTree::projected_area_bound (a surface: A cos(max(θ - spread, 0))), the receiver's
+// factor likewise (a cluster's bound over its area, a surface's cosine), and
+// F <= received * P / (π d² + P). An upper bound of the polygons' exact projected areas over the
+// cone (the remainder past the normal list counted whole), not of visibility. A pair of
+// clusters whose every facing segment is blocked is dropped only when kPartialPenalty times its
+// estimate is below feps (isotropic: the estimate over m + 2, Laplace's rule), else opened.
+//
 // Work charged: 2 element-pair form factors per refinement test (the two estimates) and 2 per
 // link (its two transfer factors).
 #pragma once

@@ -80,12 +80,15 @@ LeafRow leaf_row(const Hierarchy& h, const std::vector<Chart>& charts,
       const double v = double(h.free_rays[k]) / kVisibilityRays;
       double leaf_side = h.factor[k];  // the leaf's own links: their factor is this rule already
       if (size_t(a) != i && s < h.clusters) {
-        // A cluster source: its isotropic kernel at the leaf's four points
+        // A cluster source: its kernel (isotropic or oriented) at the leaf's four points
         // (hierarchical_clusters.h).
         double sum = 0.0;
         for (int d = 0; d < 4; ++d)
-          sum += w[d] * isotropic_point_factor({px[d], py[d], pz[d]}, chart.normal,
-                                               h.cluster_centre[s], h.area[s]);
+          sum += w[d] * (h.cluster_tree->oriented()
+                             ? h.cluster_tree->point_factor(uint32_t(s), {px[d], py[d], pz[d]},
+                                                            chart.normal)
+                             : isotropic_point_factor({px[d], py[d], pz[d]}, chart.normal,
+                                                      h.cluster_centre[s], h.area[s]));
         leaf_side = v * sum;
         ++r.evaluations;
       } else if (size_t(a) != i) {

@@ -12,8 +12,10 @@
 #include <cstdio>
 #include <glm/geometric.hpp>
 #include <map>
+#include <numbers>
 
 #include "core/error.h"
+#include "core/random.h"
 #include "formfactor/methods/raycast.h"
 #include "metrics/error_metrics.h"
 #include "scene/builtin/builtin_scenes.h"
@@ -141,17 +143,18 @@ TEST(HierarchicalClusters, OneInitialLinkAndRefinementTestsGrowSlowerThanPairs) 
 TEST(HierarchicalClusters, FurnaceGivesEOverOneMinusRho) {
   // As unclustered (hierarchical_test.cpp): every pair of the box's faces is reached once
   // through the clusters, so every leaf's row is 1 to rounding and B = 1/0.3 to 1e-12. A pair
-  // reached twice or never moves B by percents.
+  // reached twice or never moves B by percents. Isotropic and oriented clusters alike.
   auto s = testing::hierarchical_setup("furnace:rho=0.7", 4);
-  for (const char* feps : {"feps=0.01", "feps=0.0025"}) {
-    auto solver = make({feps, "clustering=isotropic"});
-    solver->init(*s->system);
-    run_to_end(*solver);
-    double worst = 0.0;
-    for (size_t i = 0; i < s->mesh.size(); ++i)
-      worst = std::max(worst, std::abs(solver->solution().at(0, i) * 0.3 - 1.0));
-    EXPECT_LT(worst, 1e-12) << feps;
-  }
+  for (const char* clustering : {"clustering=isotropic", "clustering=oriented"})
+    for (const char* feps : {"feps=0.01", "feps=0.0025"}) {
+      auto solver = make({feps, clustering});
+      solver->init(*s->system);
+      run_to_end(*solver);
+      double worst = 0.0;
+      for (size_t i = 0; i < s->mesh.size(); ++i)
+        worst = std::max(worst, std::abs(solver->solution().at(0, i) * 0.3 - 1.0));
+      EXPECT_LT(worst, 1e-12) << clustering << " " << feps;
+    }
 }
 
 TEST(HierarchicalClusters, WithoutClusterLinksTheLinksAreTheUnclusteredOnes) {
@@ -179,23 +182,139 @@ TEST(HierarchicalClusters, WithoutClusterLinksTheLinksAreTheUnclusteredOnes) {
 TEST(HierarchicalClusters, ConvergesToTheCertifiedReferenceLikeUnclustered) {
   // The same tolerance class as unclustered at the same feps: the clustered rms_rel within 1.5x
   // of the unclustered (and below 1%), on the Cornell box and on an occluded building (two
-  // storeys, desks, slabs, the atrium), where cluster links do remain.
+  // storeys, desks, slabs, the atrium), where cluster links do remain; isotropic and oriented.
+  const char* modes[3] = {"clustering=none", "clustering=isotropic", "clustering=oriented"};
   for (const auto& [spec, subdiv] : {std::pair{"cornell", 8}, std::pair{"floors:k=2,patch=2", 2}}) {
     auto s = testing::hierarchical_setup(spec, subdiv);
-    double rms[2];
-    double cluster_links = 0.0;
-    for (int clustered : {0, 1}) {
-      auto solver = make({"feps=0.01", clustered ? "clustering=isotropic" : "clustering=none"});
+    double rms[3];
+    double cluster_links[3] = {0.0, 0.0, 0.0};
+    for (int mode : {0, 1, 2}) {
+      auto solver = make({"feps=0.01", modes[mode]});
       solver->init(*s->system);
       run_to_end(*solver, 2000);
-      rms[clustered] =
+      rms[mode] =
           compare(solver->solution(), s->reference.B, s->system->area(), kMeanOfChannels).rms_rel;
-      if (clustered) cluster_links = statistics_of(*solver)["links_with_a_cluster"];
+      if (mode > 0) cluster_links[mode] = statistics_of(*solver)["links_with_a_cluster"];
     }
-    std::printf("%s: rms_rel none %.4g, isotropic %.4g (%.0f cluster links)\n", spec, rms[0],
-                rms[1], cluster_links);
-    EXPECT_LT(rms[1], 1.5 * rms[0]) << spec;
-    EXPECT_LT(rms[1], 0.01) << spec;
+    std::printf(
+        "%s: rms_rel none %.4g, isotropic %.4g (%.0f cluster links), oriented %.4g "
+        "(%.0f)\n",
+        spec, rms[0], rms[1], cluster_links[1], rms[2], cluster_links[2]);
+    for (int mode : {1, 2}) {
+      EXPECT_LT(rms[mode], 1.5 * rms[0]) << spec << " " << modes[mode];
+      EXPECT_LT(rms[mode], 0.01) << spec << " " << modes[mode];
+    }
+  }
+}
+
+TEST(HierarchicalClusters, OrientedClustersMatchTheReflectedLightOfUnclustered) {
+  // The building's reflected light (rms_rel_reflected, the room's light without the lamps)
+  // at feps 0.04, where cluster links carry much of it: isotropic clusters darken every
+  // orientation by 2-4% (0.0381 against 0.0291 unclustered): their A/4 bound links face-on
+  // cluster pairs whose F is up to 4x feps, and Laplace's rule drops blocked cluster pairs that
+  // carry light. Oriented clusters (the polygons' projected areas bounded over the cone, blocked
+  // pairs opened as partly visible ones) are within 2% of unclustered (0.0295). Asserted:
+  // oriented within 1.1x of unclustered (room for the different link pattern); isotropic fails
+  // it (1.31x). A wrong projected area is caught by OrientedProjectedAreaIsThePolygonsOwn.
+  auto s = testing::hierarchical_setup("floors:k=2,patch=2", 2);
+  double rms[2];
+  for (int oriented : {0, 1}) {
+    auto solver = make({"feps=0.04", oriented ? "clustering=oriented" : "clustering=none"});
+    solver->init(*s->system);
+    run_to_end(*solver, 2000);
+    rms[oriented] = compare_reflected(solver->solution(), s->reference.B, s->system->emission(),
+                                      s->system->area(), kMeanOfChannels)
+                        .rms_rel;
+  }
+  std::printf("floors:k=2,patch=2 feps 0.04: rms_rel_reflected none %.4g, oriented %.4g\n", rms[0],
+              rms[1]);
+  EXPECT_LT(rms[1], 1.1 * rms[0]);
+}
+
+// A square chart of side `side` centred at `centre` facing `normal` (an axis).
+Chart square(const Vec3& centre, const Vec3& normal, double side) {
+  const Vec3 a = std::abs(normal.z) > 0.5 ? Vec3(1, 0, 0) : Vec3(0, 0, 1);
+  const Vec3 b = glm::cross(normal, a);
+  Chart c;
+  c.corners = 4;
+  const double h = 0.5 * side;
+  c.x[0] = centre - h * a - h * b;
+  c.x[1] = centre + h * a - h * b;
+  c.x[2] = centre + h * a + h * b;
+  c.x[3] = centre - h * a + h * b;
+  c.normal = normal;
+  c.area = side * side;
+  return c;
+}
+
+// The exact projected area of charts in direction w: sum A max(n . w, 0).
+double exact_projected(const std::vector<Chart>& charts, const Vec3& w) {
+  double p = 0.0;
+  for (const Chart& c : charts) p += c.area * std::max(0.0, glm::dot(c.normal, w));
+  return p;
+}
+
+TEST(HierarchicalClusters, OrientedProjectedAreaIsThePolygonsOwn) {
+  // Two facing squares (a floor and the ceiling above it, 2 m^2 and 3 m^2): seen from above the
+  // cluster shows the floor only (2 m^2), from below the ceiling (3 m^2), edge-on nothing; the
+  // isotropic A/4 is 1.25 m^2 from everywhere. The oriented value must be the exact sum, and
+  // the kernel from a point x above must be P cos / (π r²) with that P.
+  const std::vector<Chart> charts = {square({0, 0, 0}, {0, 0, 1}, std::sqrt(2.0)),
+                                     square({0, 0, 2}, {0, 0, -1}, std::sqrt(3.0))};
+  const ClusterTree oriented = build_clusters(charts, true);
+  const ClusterTree isotropic = build_clusters(charts, false);
+  ASSERT_EQ(oriented.size(), 1u);
+  for (const Vec3& w : {Vec3(0, 0, 1), Vec3(0, 0, -1), Vec3(1, 0, 0), glm::normalize(Vec3(1, 1, 1)),
+                        glm::normalize(Vec3(0.3, -2, -1))}) {
+    EXPECT_NEAR(oriented.projected_area(0, w), exact_projected(charts, w), 1e-14) << w.z;
+    EXPECT_NEAR(isotropic.projected_area(0, w), 1.25, 1e-14);
+    // The bound over a cone holds every direction in it and is the value itself at zero spread.
+    EXPECT_NEAR(oriented.projected_area_bound(0, w, 0.0), exact_projected(charts, w), 1e-12);
+  }
+  const Vec3 x(0.5, 0.2, 7.0), up(0, 0, -1);  // a point above, facing down
+  const Vec3 d = oriented.clusters[0].centre - x;
+  const double r = glm::length(d);
+  EXPECT_NEAR(oriented.point_factor(0, x, up),
+              exact_projected(charts, -d / r) * glm::dot(up, d / r) / (std::numbers::pi * r * r),
+              1e-15);
+}
+
+TEST(HierarchicalClusters, OrientedBoundHoldsAndPastTheListTheRestIsIsotropic) {
+  // 40 squares with 40 distinct normals (past kOrientedNormals = 16): the root keeps 16 normals
+  // exactly and counts the rest's area as an isotropic remainder (A_rest / 4 in the estimate, the
+  // whole A_rest in the bound). The bound over a cone must hold the exact projected area of every
+  // direction in it.
+  std::vector<Chart> charts;
+  double total = 0.0;
+  for (int k = 0; k < 40; ++k) {
+    const double t = 0.7 * k, z = -0.95 + 1.9 * k / 39.0;
+    const Vec3 n = glm::normalize(
+        Vec3(std::cos(t) * std::sqrt(1 - z * z), std::sin(t) * std::sqrt(1 - z * z), z));
+    Chart c = square(3.0 * n, {0, 0, 1}, 0.5 + 0.01 * k);
+    c.normal = n;  // only the normal and area matter to the projected area
+    charts.push_back(c);
+    total += c.area;
+  }
+  const ClusterTree t = build_clusters(charts, true);
+  const uint32_t kept = t.normal_first[1] - t.normal_first[0];
+  EXPECT_EQ(kept, kOrientedNormals);
+  double kept_area = 0.0;
+  for (uint32_t k = t.normal_first[0]; k < t.normal_first[1]; ++k) kept_area += t.normal_area[k];
+  EXPECT_NEAR(kept_area + t.rest_area[0], total, 1e-12 * total);
+  EXPECT_GT(t.rest_area[0], 0.0);
+  Pcg32 rng(7);
+  for (int trial = 0; trial < 200; ++trial) {
+    const double z = 2 * rng.next_double() - 1, phi = 2 * std::numbers::pi * rng.next_double();
+    const Vec3 w(std::sqrt(1 - z * z) * std::cos(phi), std::sqrt(1 - z * z) * std::sin(phi), z);
+    const double spread = 0.5 * rng.next_double();
+    const double bound = t.projected_area_bound(0, w, spread);
+    // A direction within the cone: w tilted by up to `spread`.
+    const Vec3 side =
+        glm::normalize(glm::cross(w, std::abs(w.z) < 0.9 ? Vec3(0, 0, 1) : Vec3(1, 0, 0)));
+    for (double tilt : {0.0, 0.5 * spread, spread}) {
+      const Vec3 v = std::cos(tilt) * w + std::sin(tilt) * side;
+      EXPECT_GE(bound, exact_projected(charts, v) * (1 - 1e-12)) << trial;
+    }
   }
 }
 
@@ -214,7 +333,7 @@ TEST(HierarchicalClusters, SameBitsOnOneThreadAndOnMany) {
 }
 
 TEST(HierarchicalClusters, UnknownClusteringNamesTheKey) {
-  for (const char* bad : {"clustering=oriented", "clustering=", "clustering=yes"})
+  for (const char* bad : {"clustering=anisotropic", "clustering=", "clustering=yes"})
     testing::expect_error<UsageError>([&] { make({bad}); }, {"clustering"});
 }
 
