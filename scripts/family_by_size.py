@@ -118,8 +118,9 @@ def run_all(args):
         for label, solve, seed in configurations(n, args.seeds):
             stem = f"{name}__{label.replace(' ', '_')}" + (f"__seed{seed}" if seed is not None else "")
             trace = os.path.join(args.out, "traces", stem + ".csv")
-            if os.path.exists(trace):
-                continue  # resumable: a finished run's trace is kept
+            refused = os.path.join(args.out, "traces", stem + ".refused")
+            if os.path.exists(trace) or os.path.exists(refused):
+                continue  # resumable: a finished (or refused) run is kept
             partial = trace + ".partial"
             command = [args.radlab, "--threads", str(args.threads), "--mgf-include-root", SHARED,
                        "solve", scene] + mesh + solve + [
@@ -129,6 +130,12 @@ def run_all(args):
             done = subprocess.run(command, capture_output=True, text=True)
             print(f"   {label}{'' if seed is None else f' seed {seed}'}: exit {done.returncode} "
                   f"in {time.time() - start:.1f} s wall", flush=True)
+            if done.returncode == 3:  # the scene is invalid input for this solver: say why
+                message = [l for l in done.stderr.splitlines() if "error:" in l][-1:]
+                with open(refused, "w") as f:
+                    f.write((message[0] if message else done.stderr[-500:]) + "\n")
+                print(f"   refused: {message[0] if message else '?'}", flush=True)
+                continue
             if done.returncode not in (0, 5):  # 5: tolerance not reached (a budget stop)
                 sys.stderr.write(done.stderr[-2000:])
                 sys.exit(f"family_by_size: {' '.join(command)} failed")
@@ -160,6 +167,37 @@ def summarise(args):
         w.writeheader()
         w.writerows(rows)
     return rows
+
+
+def table(args, rows):
+    """OUT/family_by_size.md: per scene and family (seeds averaged), the final error and time and
+    the seconds to each error level (a dash where some seed never reached it)."""
+    lines = ["| scene | family | final rms_rel_reflected | seconds with set-up | "
+             + " | ".join(f"s to {level:g}" for level in THRESHOLDS) + " |",
+             "|---|---|---|---|" + "---|" * len(THRESHOLDS)]
+    for scene in args.scenes:
+        for family in sorted({r["family"] for r in rows if r["scene"] == scene}):
+            runs = [r for r in rows if r["scene"] == scene and r["family"] == family]
+            mean = lambda key: sum(float(r[key]) for r in runs) / len(runs)  # noqa: E731
+            cells = []
+            for level in THRESHOLDS:
+                reached = [r[f"seconds_to_{level:g}"] for r in runs]
+                cells.append("—" if "" in reached else f"{sum(map(float, reached)) / len(runs):.3g}")
+            seeds = f" ({len(runs)} seeds)" if len(runs) > 1 else ""
+            lines.append(f"| {scene} | {family}{seeds} | {mean('final_rms_rel_reflected'):.3g} | "
+                         f"{mean('seconds_with_setup'):.3g} | " + " | ".join(cells) + " |")
+    for scene in args.scenes:
+        folder = os.path.join(args.out, "traces")
+        for file in sorted(os.listdir(folder)):
+            if file.startswith(scene + "__") and file.endswith(".refused"):
+                family = file[:-8].split("__")[1].replace("_", " ")
+                with open(os.path.join(folder, file)) as f:
+                    why = f.read().strip().replace("|", "/")
+                lines.append(f"| {scene} | {family} | refused: {why} |" + " |" * (1 + len(THRESHOLDS)))
+    path = os.path.join(args.out, "family_by_size.md")
+    with open(path, "w") as f:
+        f.write("\n".join(lines) + "\n")
+    print(f"family_by_size: wrote {path}")
 
 
 def plot(args, rows):
@@ -222,6 +260,7 @@ def main():
     rows = summarise(args)
     if not rows:
         sys.exit(f"family_by_size: no traces in {args.out}/traces")
+    table(args, rows)
     plot(args, rows)
 
 

@@ -15,7 +15,8 @@
 // with weights w_c rho_kc / s_k (Russian roulette: unbiased for any s_k > 0, and with s_k the
 // largest channel no weight ever grows). A walk also ends when its ray escapes or meets a back
 // face. Walks at rho -> 1 must end: a scene with any reflectance >= 1 is refused (InputError,
-// exit 3, naming the element and channel). Below 1 the walk length is geometric, at most
+// exit 3, naming the element and channel), even where the system has a finite solution (hosp.mgf
+// has an element reflecting 1 in red: refused there; stochastic-jacobi runs). Below 1 the walk length is geometric, at most
 // 1/(1 - max rho) bounces on average, so no cap (and no cap's bias) is needed.
 //
 // Shooting walks (`walks=shooting`) estimate the reflected power P_j - Phi_j = rho_j I_j (I_j the
@@ -138,8 +139,9 @@ class RandomWalkSolver final : public Solver {
               "random-walk: element " + std::to_string(i) + " (polygon " +
               std::to_string(system.mesh().polygon[i]) + ") reflects " + text::format_double(r) +
               (channels_ == 1 ? std::string() : " in channel " + std::to_string(c)) +
-              ": walks survive with probability rho, and at rho >= 1 they never end (nor has "
-              "the system a finite solution); use reflectances below 1");
+              ": walks survive with probability rho, so a walk never ends there (in a closed "
+              "room of such elements, never at all) and the absorption estimator's 1/(1 - rho) "
+              "is infinite; use reflectances below 1, or stochastic-jacobi, which takes them");
         survival_[i] = std::max(survival_[i], r);
       }
     rays_ = std::make_unique<ElementRays>(system.mesh());
