@@ -10,8 +10,9 @@
 // K` per problem, then the shards.
 //
 // Blocked builds (formfactor/matrix/matrix_blocks.h; issue 33): `--problem K --block I/B` computes
-// block I of B of problem K's form-factor matrix (its rows split in B) into the cache as a block
-// file, independent of the other blocks (a Slurm node each); `--merge-blocks B` checks all B
+// block I of B of problem K's form-factor matrix (its pairs split in B equal shares for raycast
+// and exact, each pair once; its rows for the hemicube) into the cache as a block file,
+// independent of the other blocks (a Slurm node each); `--merge-blocks B` checks all B
 // (present, this matrix's, this split's, intact) and merges them into the cached matrix, the
 // one-process build's bits, then prepares as usual (the reference). `--plan --blocks B` adds each
 // block's and the merge's estimates. The workflow runs them with config blocks=B.
@@ -65,6 +66,7 @@ namespace {
 // One block of a blocked build, or the merge (index 0), estimated.
 struct BlockEstimate {
   size_t index = 0, first_row = 0, end_row = 0;
+  size_t pairs = 0;  // unordered pairs (blocks of pairs) or entries (blocks of rows)
   double memory_bytes = 0, seconds = 0;
 };
 
@@ -74,9 +76,10 @@ struct ProblemEstimate {
   double matrix_bytes = 0, memory_bytes = 0, prepare_seconds = 0;
   std::string error;                     // the scene could not be loaded or meshed
   std::vector<std::string> scene_files;  // every file the scene reads (the workflow's inputs)
-  // --blocks B: the blocks (min(B, elements) of them; none when the problem is not built in
-  // blocks, `blocks_note` says why) and the merge.
+  // --blocks B: the blocks (min(B, the most the split allows) of them; none when the problem is
+  // not built in blocks, `blocks_note` says why), their split ("pairs" or "rows") and the merge.
   std::vector<BlockEstimate> blocks;
+  std::string split;
   BlockEstimate merge;
   std::string blocks_note;
 };
@@ -88,20 +91,23 @@ void estimate_blocks(const PlannedProblem& planned, const FormFactorMethod& meth
     e.blocks_note = "two levels: no n x n matrix";
     return;
   }
-  if (!method.builds_in_row_blocks()) {
+  if (!method.builds_in_row_blocks() && !method.builds_in_pair_blocks()) {
     e.blocks_note = "form factors '" + planned.spec.ff_method + "' are not built in blocks";
     return;
   }
-  const size_t count = std::min(requested, e.elements);
+  const BlockSplit split = block_split(method, planned.spec.ff_method);
+  e.split = split == BlockSplit::kPairs ? "pairs" : "rows";
+  const size_t count =
+      std::min(requested, split == BlockSplit::kPairs ? e.elements / 2 : e.elements);
   for (size_t k = 1; k <= count; ++k) {
-    const MatrixBlock block = matrix_block(e.elements, k, count);
-    const PreparationEstimate b = estimate_matrix_block(
-        planned.spec, e.elements, block.end - block.first, preparation_threads());
-    e.blocks.push_back({k, block.first, block.end, b.total_bytes(), b.seconds});
+    const MatrixBlock block = matrix_block(e.elements, k, count, split);
+    const PreparationEstimate b =
+        estimate_matrix_block(planned.spec, e.elements, block, preparation_threads());
+    e.blocks.push_back({k, block.first, block.end, block.pairs(), b.total_bytes(), b.seconds});
   }
   const PreparationEstimate m =
       estimate_block_merge(planned.spec, e.elements, preparation_threads());
-  e.merge = {0, 0, e.elements, m.total_bytes(), m.seconds};
+  e.merge = {0, 0, e.elements, 0, m.total_bytes(), m.seconds};
 }
 
 ProblemEstimate estimate_problem(const PlannedProblem& planned, size_t blocks) {
@@ -191,12 +197,14 @@ void print_plan(const ExperimentSpec& spec, const SweepPlan& plan, size_t blocks
     json.field("prepare_seconds", e.prepare_seconds);
     json.field("scene_files", e.scene_files);
     if (blocks > 0) {
+      if (!e.split.empty()) json.field("block_split", e.split);
       json.key("blocks").begin_array();
       for (const BlockEstimate& b : e.blocks) {
         json.begin_object();
         json.field("block", b.index);
         json.field("first_row", b.first_row);
         json.field("end_row", b.end_row);
+        json.field(e.split == "pairs" ? "pairs" : "entries", b.pairs);
         json.field("memory_mb", std::ceil(b.memory_bytes / 1e6));
         json.field("seconds", b.seconds);
         json.end_object();
@@ -292,7 +300,8 @@ void prepare_block(const ExperimentSpec& spec, const SweepPlan& plan, size_t ind
             std::to_string(block) + "/" + std::to_string(count));
   const auto start = std::chrono::steady_clock::now();
   const std::unique_ptr<Problem> problem = prepare_matrix_block(planned.spec, block, count);
-  const MatrixBlock rows = matrix_block(problem->mesh.size(), block, count);
+  const MatrixBlock rows = matrix_block(problem->mesh.size(), block, count,
+                                        block_split(*problem->method, planned.spec.ff_method));
   std::printf("%s of problem %zu in %s\n", rows.label().c_str(), index,
               problem->build.cache_file.c_str());
   if (record.empty()) return;
@@ -308,7 +317,9 @@ void prepare_block(const ExperimentSpec& spec, const SweepPlan& plan, size_t ind
   json.field("first_row", rows.first);
   json.field("end_row", rows.end);
   json.field("block_file", problem->build.cache_file);
+  json.field("split", rows.split == BlockSplit::kPairs ? "pairs" : "rows");
   json.field("build", problem->build.summary());
+  json.field("rays", problem->build.cost.rays);
   json.field("seconds",
              std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   json.end_object();
@@ -339,8 +350,9 @@ void add_prepare_command(CLI::App& app) {
                     "build nothing: print the problems and runs as JSON with estimates of memory "
                     "and time (for a scheduler)");
   command->add_option("--block", o->block,
-                      "compute only block K of B of the problem's form-factor matrix (K/B, rows "
-                      "split in B blocks) into the cache as a block file; needs one problem "
+                      "compute only block K of B of the problem's form-factor matrix (K/B: its "
+                      "pairs split in B equal shares, or its rows for the hemicube) into the cache "
+                      "as a block file; needs one problem "
                       "(--problem K); merge with --merge-blocks B");
   command
       ->add_option("--merge-blocks", o->merge_blocks,

@@ -121,10 +121,34 @@ class FormFactorMethod {
   }
 
   // Blocked builds (formfactor/matrix/matrix_blocks.h): whether the matrix may be built as
-  // blocks of rows, each by an independent process, and merged. Not for a method that
-  // integrates each pair once (its rows share pair integrals: blocks of rows would integrate
-  // each pair twice) nor one with side files other than row side files (below).
-  virtual bool builds_in_row_blocks() const { return !integrates_pairs_once(); }
+  // blocks of rows, each by an independent process, and merged. Not for a method built in
+  // blocks of pairs (below), nor one that integrates each pair once without saying how (its rows
+  // share pair integrals: blocks of rows would integrate each pair twice), nor one with side
+  // files other than row side files (below).
+  virtual bool builds_in_row_blocks() const {
+    return !integrates_pairs_once() && !builds_in_pair_blocks();
+  }
+  // Blocks of pairs: a method whose F_ij and F_ji share the pair's work (raycast: one
+  // visibility estimate and one quadrature; exact: one integral) computes them together, so a
+  // block of the unordered pairs (i, j > i), i in a range, computes each pair once:
+  //   pair_entries(i):  upper[j] = F_ij and lower[j] = F_ji for every j in (i, n), the same bits
+  //                     as row(i)[j] and row(j)[i] (other entries untouched); the pairs' classes
+  //                     counted for both entries, their work (rays, kernel evaluations) once.
+  //                     Thread-safe; it also adds the pairs' share of each row's side values
+  //                     (raycast: each row's sampling variance) to the method's state.
+  //   pair_block_state(): that state as bytes (pair_block_state_bytes(n) of them), kept beside
+  //                     the block file;
+  //   restore_pair_block_states(): the state of every block added up (the merge): afterwards
+  //                     save_side_files() writes what a one-process build writes. False when a
+  //                     state is not one the method wrote (nothing changed).
+  virtual bool builds_in_pair_blocks() const { return false; }
+  virtual void pair_entries(size_t i, std::span<double> upper, std::span<double> lower,
+                            RowCost& cost) const;
+  virtual size_t pair_block_state_bytes(size_t /*n*/) const { return 0; }
+  virtual std::vector<char> pair_block_state() const { return {}; }
+  virtual bool restore_pair_block_states(const std::vector<std::vector<char>>& /*states*/) const {
+    return true;
+  }
   // Side files (save_side_files) whose payload is `arrays` arrays of n floats, one value per row
   // in each (raycast's ".sigma", the hemicube's ".emitters"): the merge of a blocked build takes
   // each row's values from the side file beside the block that computed the row.

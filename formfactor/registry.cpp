@@ -16,6 +16,13 @@ void FormFactorMethod::upper_row(size_t /*i*/, std::span<double> /*row*/, RowCos
                          "' integrates pairs once but has no upper_row()");
 }
 
+void FormFactorMethod::pair_entries(size_t /*i*/, std::span<double> /*upper*/,
+                                    std::span<double> /*lower*/, RowCost& /*cost*/) const {
+  // Reached only when a method says builds_in_pair_blocks() without giving its pairs.
+  throw std::logic_error("form-factor method '" + name() +
+                         "' builds in blocks of pairs but has no pair_entries()");
+}
+
 std::map<std::string, std::string> read_parameter_defaults(const FormFactorMethodInfo& info) {
   ParamBag bag("form factors '" + info.name + "'");
   info.configure(bag);  // reads every key with its fallback; configuring builds nothing

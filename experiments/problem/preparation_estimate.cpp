@@ -100,13 +100,19 @@ PreparationEstimate estimate_preparation(const ProblemSpec& spec, size_t element
   return e;
 }
 
-PreparationEstimate estimate_matrix_block(const ProblemSpec& spec, size_t elements, size_t rows,
-                                          int threads) {
+PreparationEstimate estimate_matrix_block(const ProblemSpec& spec, size_t elements,
+                                          const MatrixBlock& block, int threads) {
   PreparationEstimate e;
   const double n = double(elements);
   e.program_bytes = kProgramBytes + kBytesPerElement * n;
-  e.matrix_bytes = 8.0 * double(rows) * n;
-  e.matrix_seconds = matrix_rows(spec, n, double(rows), double(std::max(threads, 1)), e);
+  const double t = double(std::max(threads, 1));
+  if (block.split == BlockSplit::kPairs) {
+    e.matrix_bytes = 16.0 * block.entries();
+    e.matrix_seconds = matrix_rows(spec, n, block.entries() / n, t, e);
+  } else {
+    e.matrix_bytes = 8.0 * block.entries();
+    e.matrix_seconds = matrix_rows(spec, n, double(block.end - block.first), t, e);
+  }
   e.seconds = kStartSeconds + e.matrix_seconds;
   return e;
 }

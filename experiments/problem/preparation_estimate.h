@@ -11,6 +11,7 @@
 #include <string>
 
 #include "experiments/problem/problem.h"
+#include "formfactor/matrix/matrix_blocks.h"
 
 namespace radlab {
 
@@ -34,12 +35,14 @@ struct PreparationEstimate {
 // spec.need_reference). The method's parameters are spec.ff_set over the method's defaults.
 PreparationEstimate estimate_preparation(const ProblemSpec& spec, size_t elements, int threads);
 
-// Blocked builds (formfactor/matrix/matrix_blocks.h), by the same rates: one block of `rows` rows
-// (held in double, 8n bytes a row at most; the method's working memory; the program), and the
-// merge (everything estimate_preparation holds, the blocks read at 100 MB/s instead of the
-// matrix computed, then the reference).
-PreparationEstimate estimate_matrix_block(const ProblemSpec& spec, size_t elements, size_t rows,
-                                          int threads);
+// Blocked builds (formfactor/matrix/matrix_blocks.h), by the same rates: one block (a block of
+// rows held in double, 8n bytes a row at most; a block of pairs, both entries of each pair held
+// twice in double while its rows are assembled, 16 bytes an entry at most, and computed at the
+// dense rate per entry; the method's working memory; the program), and the merge (everything
+// estimate_preparation holds, the blocks read at 100 MB/s instead of the matrix computed, then
+// the reference).
+PreparationEstimate estimate_matrix_block(const ProblemSpec& spec, size_t elements,
+                                          const MatrixBlock& block, int threads);
 PreparationEstimate estimate_block_merge(const ProblemSpec& spec, size_t elements, int threads);
 
 // The threads radlab's parallel loops use (--threads, else every core).

@@ -490,7 +490,7 @@ std::unique_ptr<Problem> prepare_for_blocks(const ProblemSpec& spec, MatrixCache
     throw UsageError("blocks: two-level problems have no n x n matrix to build in blocks");
   if (!spec.use_cache) throw UsageError("blocks: a blocked build needs the cache (not --no-cache)");
   auto problem = prepare_method(spec);
-  require_row_blocks(*problem->method, spec.ff_method);
+  block_split(*problem->method, spec.ff_method);  // refused here when not built in blocks
   Preparation p{*problem, spec};
   open_cache(p);
   cache = *p.cache;
@@ -512,17 +512,16 @@ std::unique_ptr<Problem> prepare_matrix_block(const ProblemSpec& spec, size_t in
   MatrixCache cache{std::filesystem::path()};
   MatrixCacheKey key;
   auto problem = prepare_for_blocks(spec, cache, key);
-  const MatrixBlock block = matrix_block(problem->mesh.size(), index, count);
+  const MatrixBlock block = matrix_block(problem->mesh.size(), index, count,
+                                         block_split(*problem->method, spec.ff_method));
   // The limits hold for the block's own work and memory (a merge is checked as a whole
   // preparation, when prepare_problem loads it).
-  const size_t rows = block.end - block.first;
   const PreparationEstimate estimate =
-      estimate_matrix_block(spec, problem->mesh.size(), rows, preparation_threads());
+      estimate_matrix_block(spec, problem->mesh.size(), block, preparation_threads());
   const std::string what = problem->scene().name + ": " + block.label() + " of the form-factor " +
                            "matrix of " + std::to_string(problem->mesh.size()) + " elements";
   check_limit("memory_gb", estimate.total_bytes(), what + " (" + estimate.describe() + ")");
-  check_limit("pairs", double(rows) * double(problem->mesh.size()),
-              what + " (" + spec.ff_method + ")");
+  check_limit("pairs", block.entries(), what + " (" + spec.ff_method + ")");
   Progress progress("form factors (" + spec.ff_method + ", " + block.label() + ")", "rows",
                     double(block.end - block.first));
   build_matrix_block(*problem->method, cache, key, problem->mesh.size(), block, problem->build,
@@ -541,7 +540,7 @@ void merge_matrix_blocks(const ProblemSpec& spec, size_t count) {
   const std::unique_ptr<FileLock> lock = cache.lock(key);
   const MergedMatrix merged =
       merge_matrix_blocks(*problem->method, cache, key, problem->mesh.size(), count);
-  if (!store_merged_matrix(cache, key, merged))
+  if (!store_merged_matrix(*problem->method, cache, key, merged))
     throw InputError(cache.path(key).string() +
                      ": cannot store the merged matrix (see the warning above)");
   log::info("form factors: " + std::to_string(count) + " blocks merged into " +

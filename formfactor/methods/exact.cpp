@@ -118,7 +118,7 @@ ExactFormFactors::ExactFormFactors(const Scene& scene, const Mesh& mesh, ExactOp
   radius_ = element_radii(mesh);
   corner_.reserve(mesh.vertex_index.size());
   for (uint32_t v : mesh.vertex_index) corner_.push_back(mesh.vertices[v]);
-  row_excess_.assign(mesh.size(), 0.0);
+  row_excess_.assign(mesh.size(), 0);
   if (is_convex_enclosure(scene)) {
     nothing_occludes_ = true;
     return;
@@ -677,19 +677,19 @@ void ExactFormFactors::record_excess(size_t i, size_t j, double excess) const {
   const uint64_t key = uint64_t(i) * uint64_t(mesh_.size()) + uint64_t(j);
   const std::lock_guard<std::mutex> lock(excess_mutex_);
   if (!capped_pairs_.insert(key).second) return;  // recomputed (row by row: once from each row)
-  row_excess_[i] += excess;
-  row_excess_[j] += reciprocal(excess, mesh_.area[i], mesh_.area[j]);
+  row_excess_[i] += to_fixed(excess);
+  row_excess_[j] += to_fixed(reciprocal(excess, mesh_.area[i], mesh_.area[j]));
 }
 
 double ExactFormFactors::row_excess(size_t i) const {
   const std::lock_guard<std::mutex> lock(excess_mutex_);
-  return i < row_excess_.size() ? row_excess_[i] : 0.0;
+  return i < row_excess_.size() ? from_fixed(row_excess_[i]) : 0.0;
 }
 
 double ExactFormFactors::largest_row_excess() const {
   const std::lock_guard<std::mutex> lock(excess_mutex_);
   double largest = 0.0;
-  for (double e : row_excess_) largest = std::max(largest, e);
+  for (FixedSum e : row_excess_) largest = std::max(largest, from_fixed(e));
   return largest;
 }
 
@@ -700,12 +700,16 @@ size_t ExactFormFactors::pairs_capped() const {
 
 std::vector<double> ExactFormFactors::row_excesses() const {
   const std::lock_guard<std::mutex> lock(excess_mutex_);
-  return row_excess_;
+  std::vector<double> rows(row_excess_.size());
+  for (size_t i = 0; i < rows.size(); ++i) rows[i] = from_fixed(row_excess_[i]);
+  return rows;
 }
 
 void ExactFormFactors::set_row_excesses(std::vector<double> excess, size_t pairs) const {
   const std::lock_guard<std::mutex> lock(excess_mutex_);
-  row_excess_ = std::move(excess);
+  // Exact round trip of what row_excesses() gave (fixed_sum.h).
+  row_excess_.assign(excess.size(), 0);
+  for (size_t i = 0; i < excess.size(); ++i) row_excess_[i] = to_fixed(excess[i]);
   capped_pairs_.clear();
   loaded_pairs_ = pairs;
 }
@@ -778,6 +782,54 @@ std::optional<double> ExactFormFactors::stated_reciprocity_error() const {
 void ExactFormFactors::orient_row(size_t i, std::span<double> row) const {
   for (size_t j = 0; j < row.size(); ++j)
     if (!integrates_from(mesh_, i, j)) row[j] = reciprocal(row[j], mesh_.area[j], mesh_.area[i]);
+}
+
+void ExactFormFactors::pair_entries(size_t i, std::span<double> upper, std::span<double> lower,
+                                    RowCost& cost) const {
+  // As build_matrix_symmetric: the pairs' work once, their classes for both entries.
+  RowCost one;
+  upper_row(i, upper, one);
+  cost.rays += one.rays;
+  cost.kernel_evaluations += one.kernel_evaluations;
+  cost.pairs_culled += 2 * one.pairs_culled;
+  cost.pairs_unoccluded += 2 * one.pairs_unoccluded;
+  cost.pairs_traced += 2 * one.pairs_traced;
+  for (size_t j = i + 1; j < upper.size(); ++j) {
+    const double f = upper[j];  // F_ab over the integrated side a
+    if (integrates_from(mesh_, i, j)) {
+      lower[j] = reciprocal(f, mesh_.area[i], mesh_.area[j]);  // orient_row(j) at column i
+    } else {
+      upper[j] = reciprocal(f, mesh_.area[j], mesh_.area[i]);  // orient_row(i) at column j
+      lower[j] = f;
+    }
+  }
+}
+
+std::vector<char> ExactFormFactors::pair_block_state() const {
+  const std::lock_guard<std::mutex> lock(excess_mutex_);
+  const size_t words = row_excess_.size() + 1;
+  std::vector<FixedSum> values(words);
+  for (size_t k = 0; k < words; ++k)
+    values[k] = k == 0 ? FixedSum(capped_pairs_.size() + loaded_pairs_) : row_excess_[k - 1];
+  std::vector<char> bytes(words * sizeof(FixedSum));
+  std::memcpy(bytes.data(), values.data(), bytes.size());
+  return bytes;
+}
+
+bool ExactFormFactors::restore_pair_block_states(
+    const std::vector<std::vector<char>>& states) const {
+  const size_t n = mesh_.size();
+  std::vector<FixedSum> sum(n + 1, 0), data(n + 1);
+  for (const std::vector<char>& state : states) {
+    if (state.size() != (n + 1) * sizeof(FixedSum)) return false;
+    std::memcpy(data.data(), state.data(), state.size());
+    for (size_t k = 0; k <= n; ++k) sum[k] += data[k];
+  }
+  const std::lock_guard<std::mutex> lock(excess_mutex_);
+  row_excess_.assign(sum.begin() + 1, sum.end());
+  capped_pairs_.clear();
+  loaded_pairs_ = size_t(sum[0]);
+  return true;
 }
 
 void ExactFormFactors::row(size_t i, std::span<double> out, RowCost& cost) const {

@@ -65,6 +65,7 @@
 #include "formfactor/form_factor_method.h"
 #include "formfactor/integrate/double_area.h"
 #include "formfactor/integrate/polygon_integral.h"
+#include "formfactor/matrix/fixed_sum.h"
 #include "formfactor/visibility/shaft.h"
 #include "formfactor/visibility/visibility.h"
 #include "formfactor/visibility/visible_polygon.h"
@@ -119,6 +120,16 @@ class ExactFormFactors final : public FormFactorMethod {
   // Symmetric builds: upper_row (below) and the other side by reciprocity.
   bool integrates_pairs_once() const override { return true; }
   void orient_row(size_t i, std::span<double> row) const override;
+  // Blocks of pairs (form_factor_method.h): upper_row's integrals, each entry oriented as
+  // orient_row orients it. A block's state is its pairs' row excesses (the count of pairs stopped
+  // short, then n sums in fixed point, as the method keeps them: fixed_sum.h), added up by the
+  // merge: the same bits as a one-process build's, whose threads add in any order.
+  bool builds_in_pair_blocks() const override { return true; }
+  void pair_entries(size_t i, std::span<double> upper, std::span<double> lower,
+                    RowCost& cost) const override;
+  size_t pair_block_state_bytes(size_t n) const override { return (n + 1) * sizeof(FixedSum); }
+  std::vector<char> pair_block_state() const override;
+  bool restore_pair_block_states(const std::vector<std::vector<char>>& states) const override;
 
   // F_ij, integrated over the smaller element of the pair (the lower index on equal areas; in
   // clip mode sometimes the other one, see pair_integral) and turned around by reciprocity on
@@ -244,7 +255,7 @@ class ExactFormFactors final : public FormFactorMethod {
   void record_excess(size_t i, size_t j, double excess) const;
   mutable std::mutex excess_mutex_;
   mutable std::unordered_set<uint64_t> capped_pairs_;  // i * n + j of the pairs recorded
-  mutable std::vector<double> row_excess_;             // per row, F units
+  mutable std::vector<FixedSum> row_excess_;           // per row, F units (fixed_sum.h)
   mutable size_t loaded_pairs_ = 0;                    // pairs_capped of a loaded matrix
 };
 

@@ -1,6 +1,7 @@
 #include "formfactor/methods/raycast.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -14,6 +15,7 @@
 #include "formfactor/integrate/contour_integral.h"
 #include "formfactor/integrate/pair_geometry.h"
 #include "formfactor/integrate/polygon_integral.h"
+#include "formfactor/matrix/fixed_sum.h"
 #include "formfactor/matrix/matrix_cache.h"
 #include "formfactor/methods/method_infos.h"
 #include "scene/geometry.h"
@@ -45,6 +47,35 @@ constexpr long long kContourEvaluations = 200000;
 constexpr double kThinStart = 16.0;
 constexpr int kMaxStrips = 1024;
 constexpr int kMaxPieces = 32768;
+
+// Each row's sampling variance and quadrature excess are sums of non-negative terms over its
+// pairs, added in fixed point (fixed_sum.h): a one-process build adding a row's terms in column
+// order and a blocked build adding each block's share of them (pair_entries, merged by
+// restore_pair_block_states) give the same bits.
+struct RaycastFormFactors::RowSums {
+  FixedSum variance = 0, excess = 0;
+  uint64_t short_pairs = 0;
+  void add(double v, double e) {
+    variance += to_fixed(v);
+    excess += to_fixed(e);
+    short_pairs += e > 0.0 ? 1 : 0;
+  }
+};
+
+namespace {
+
+// Adds `x` to the 128-bit sum in words[0] (low) and words[1] (high) from any thread: each
+// addition's carry out of the low word goes to the high word, so once every thread is done the
+// words hold the exact sum whatever the order.
+void add_atomically(std::atomic<uint64_t>* words, FixedSum x) {
+  if (x == 0) return;
+  const uint64_t low = static_cast<uint64_t>(x), high = static_cast<uint64_t>(x >> 64);
+  const uint64_t before = words[0].fetch_add(low, std::memory_order_relaxed);
+  const uint64_t carry = before + low < before ? 1 : 0;
+  if (high + carry > 0) words[1].fetch_add(high + carry, std::memory_order_relaxed);
+}
+
+}  // namespace
 
 RaycastOptions RaycastOptions::from(ParamBag& bag) {
   RaycastOptions o;
@@ -101,6 +132,7 @@ RaycastFormFactors::RaycastFormFactors(const Scene& scene, const Mesh& mesh, Ray
   row_sigma_.assign(mesh.size(), std::numeric_limits<float>::quiet_NaN());
   row_excess_.assign(mesh.size(), std::numeric_limits<float>::quiet_NaN());
   row_short_.assign(mesh.size(), 0);
+  pair_sums_ = std::make_unique<std::atomic<uint64_t>[]>(mesh.size() * kRowStateBytes / 8);
 }
 
 std::vector<std::string> RaycastFormFactors::left_out() const {
@@ -388,23 +420,131 @@ double RaycastFormFactors::unoccluded_pair(size_t i, size_t j) const {
 }
 
 void RaycastFormFactors::row(size_t i, std::span<double> out, RowCost& cost) const {
-  double variance = 0.0, excess = 0.0;
-  uint32_t short_pairs = 0;
+  RowSums sums;
   for (size_t j = 0; j < out.size(); ++j) {
     double v = 0.0, e = 0.0;
     out[j] = pair_with_errors(i, j, cost, v, e);
-    variance += v;
-    excess += e;
-    short_pairs += e > 0.0 ? 1 : 0;
+    sums.add(v, e);
   }
+  finish_row(i, sums);
+}
+
+void RaycastFormFactors::finish_row(size_t i, const RowSums& sums) const {
   // Rounded up to float, so the stated error never shrinks by storage.
   const auto up = [](double x) {
     const float rounded = float(x);
     return double(rounded) < x ? std::nextafter(rounded, 1e30f) : rounded;
   };
-  row_sigma_[i] = up(std::sqrt(variance));
-  row_excess_[i] = up(excess);
-  row_short_[i] = short_pairs;
+  row_sigma_[i] = up(std::sqrt(from_fixed(sums.variance)));
+  row_excess_[i] = up(from_fixed(sums.excess));
+  row_short_[i] = uint32_t(std::min<uint64_t>(sums.short_pairs, UINT32_MAX));
+}
+
+void RaycastFormFactors::unoccluded_both(size_t i, size_t j, RowCost& cost, double& f_ij,
+                                         double& error_ij, double& f_ji, double& error_ji) const {
+  // unoccluded(i, j) integrates over j when over_j, unoccluded(j, i) over i when over_i (the
+  // same conditions as there); when the two agree on the side, one integral serves both, each
+  // entry scaled by the same expression as there.
+  const double ai = mesh_.area[i], aj = mesh_.area[j];
+  const bool over_j = ai > 0.0 && (aj < ai || (aj == ai && j < i));
+  const bool over_i = aj > 0.0 && (ai < aj || (ai == aj && i < j));
+  double over = 0.0;
+  if (over_j && !over_i) {
+    const double u = unoccluded_over(j, i, cost, &over);
+    f_ij = u * (aj / ai);
+    error_ij = over * (aj / ai);
+    f_ji = u;
+    error_ji = over;
+  } else if (!over_j && over_i) {
+    const double u = unoccluded_over(i, j, cost, &over);
+    f_ij = u;
+    error_ij = over;
+    f_ji = u * (ai / aj);
+    error_ji = over * (ai / aj);
+  } else {
+    f_ij = unoccluded(i, j, cost, &error_ij);
+    f_ji = unoccluded(j, i, cost, &error_ji);
+  }
+}
+
+void RaycastFormFactors::pair_entries(size_t i, std::span<double> upper, std::span<double> lower,
+                                      RowCost& cost) const {
+  const size_t n = mesh_.size();
+  std::atomic<uint64_t>* sums = pair_sums_.get();
+  const auto add_to_row = [&](size_t row, const RowSums& s) {
+    std::atomic<uint64_t>* words = sums + row * (kRowStateBytes / 8);
+    add_atomically(words, s.variance);
+    add_atomically(words + 2, s.excess);
+    if (s.short_pairs > 0) words[4].fetch_add(s.short_pairs, std::memory_order_relaxed);
+  };
+  RowSums own;  // row i's share, added once at the end
+  for (size_t j = i + 1; j < n; ++j) {
+    // pair_with_errors(i, j) and pair_with_errors(j, i), step by step.
+    upper[j] = lower[j] = 0.0;
+    if (!pair_faces(mesh_, i, j, plane_epsilon_)) {
+      cost.pairs_culled += 2;
+      continue;
+    }
+    double f_ij = 0.0, error_ij = 0.0, f_ji = 0.0, error_ji = 0.0;
+    unoccluded_both(i, j, cost, f_ij, error_ij, f_ji, error_ji);
+    const double excess_ij = std::max(0.0, error_ij - options_.tolerance * std::max(f_ij, 0.0));
+    const double excess_ji = std::max(0.0, error_ji - options_.tolerance * std::max(f_ji, 0.0));
+    double variance_ij = 0.0, variance_ji = 0.0;
+    if (f_ij > 0.0 || f_ji > 0.0) {
+      // One visibility estimate (V_ij = V_ji, the same rays), counted for each entry that asks
+      // for it, as the two rows of a one-process build count it.
+      RowCost seen;
+      double sigma = 0.0;
+      const double v = visibility_.fraction(i, j, seen, &sigma);
+      cost += seen;
+      if (f_ij > 0.0 && f_ji > 0.0) {
+        cost.pairs_traced += seen.pairs_traced;
+        cost.pairs_unoccluded += seen.pairs_unoccluded;
+      }
+      if (f_ij > 0.0) {
+        upper[j] = f_ij * v;
+        variance_ij = (f_ij * sigma) * (f_ij * sigma);
+      }
+      if (f_ji > 0.0) {
+        lower[j] = f_ji * v;
+        variance_ji = (f_ji * sigma) * (f_ji * sigma);
+      }
+    }
+    own.add(variance_ij, excess_ij);
+    RowSums other;
+    other.add(variance_ji, excess_ji);
+    add_to_row(j, other);
+  }
+  add_to_row(i, own);
+}
+
+std::vector<char> RaycastFormFactors::pair_block_state() const {
+  const size_t words = mesh_.size() * (kRowStateBytes / 8);
+  std::vector<uint64_t> values(words);
+  for (size_t k = 0; k < words; ++k) values[k] = pair_sums_[k].load(std::memory_order_relaxed);
+  std::vector<char> bytes(words * sizeof(uint64_t));
+  std::memcpy(bytes.data(), values.data(), bytes.size());
+  return bytes;
+}
+
+bool RaycastFormFactors::restore_pair_block_states(
+    const std::vector<std::vector<char>>& states) const {
+  const size_t n = mesh_.size(), words = kRowStateBytes / 8;
+  for (const std::vector<char>& state : states)
+    if (state.size() != n * kRowStateBytes) return false;
+  std::vector<RowSums> rows(n);
+  std::vector<uint64_t> values(n * words);
+  for (const std::vector<char>& state : states) {
+    std::memcpy(values.data(), state.data(), state.size());
+    for (size_t r = 0; r < n; ++r) {
+      const uint64_t* w = values.data() + r * words;
+      rows[r].variance += (static_cast<FixedSum>(w[1]) << 64) | w[0];
+      rows[r].excess += (static_cast<FixedSum>(w[3]) << 64) | w[2];
+      rows[r].short_pairs += w[4];
+    }
+  }
+  for (size_t r = 0; r < n; ++r) finish_row(r, rows[r]);
+  return true;
 }
 
 void RaycastFormFactors::ensure_row_errors(size_t i) const {

@@ -29,6 +29,7 @@
 // measure what it saves).
 #pragma once
 
+#include <atomic>
 #include <memory>
 
 #include "formfactor/form_factor_method.h"
@@ -92,6 +93,17 @@ class RaycastFormFactors final : public FormFactorMethod {
     return true;
   }
   std::vector<RowSideFile> row_side_files() const override { return {{".sigma", 2}}; }
+  // Blocks of pairs (form_factor_method.h): each pair's quadrature and visibility once for both
+  // entries. Each row's sampling variance and quadrature excess are sums over its pairs kept in
+  // fixed point (formfactor/matrix/fixed_sum.h: exact and associative), so a row's sums come out
+  // the same bits whether one process adds them in column order or blocks add their shares.
+  bool builds_in_row_blocks() const override { return false; }
+  bool builds_in_pair_blocks() const override { return true; }
+  void pair_entries(size_t i, std::span<double> upper, std::span<double> lower,
+                    RowCost& cost) const override;
+  size_t pair_block_state_bytes(size_t n) const override { return n * kRowStateBytes; }
+  std::vector<char> pair_block_state() const override;
+  bool restore_pair_block_states(const std::vector<std::vector<char>>& states) const override;
 
   // One pair, for tests and the catalogue comparisons.
   double pair(size_t i, size_t j, RowCost& cost) const;
@@ -137,6 +149,17 @@ class RaycastFormFactors final : public FormFactorMethod {
   double pair_with_errors(size_t i, size_t j, RowCost& cost, double& variance,
                           double& excess) const;
   int order_for(size_t i, size_t j, std::span<const Vec3> from, double kept) const;
+  // F^u_ij and F^u_ji with their quadrature errors, the same bits as unoccluded(i, j) and
+  // unoccluded(j, i), from one integral when both integrate over the same side (always, unless
+  // an element has no area).
+  void unoccluded_both(size_t i, size_t j, RowCost& cost, double& f_ij, double& error_ij,
+                       double& f_ji, double& error_ji) const;
+  // A row's sums in fixed point (raycast.cpp): variance, quadrature excess, pairs short of the
+  // tolerance; stored into row_sigma_, row_excess_ and row_short_ as row() stores them.
+  struct RowSums;
+  void finish_row(size_t i, const RowSums& sums) const;
+  // Per row: low and high words of the two fixed-point sums, and the short pairs (8 bytes each).
+  static constexpr size_t kRowStateBytes = 5 * sizeof(uint64_t);
 
   const Mesh& mesh_;
   RaycastOptions options_;
@@ -147,6 +170,9 @@ class RaycastFormFactors final : public FormFactorMethod {
   mutable std::vector<float> row_sigma_;     // per row: row_sampling_error, NaN until computed
   mutable std::vector<float> row_excess_;    // per row: row_quadrature_excess, NaN until computed
   mutable std::vector<uint32_t> row_short_;  // per row: its pairs short of the tolerance
+  // pair_entries: every row's share of the pairs computed so far (kRowStateBytes / 8 words a
+  // row, added atomically: a pair (i, j) adds to row j from row i's task).
+  mutable std::unique_ptr<std::atomic<uint64_t>[]> pair_sums_;
 };
 
 // Each row's visibility sampling error and quadrature excess beside a cached matrix file

@@ -1,9 +1,11 @@
 // Blocked matrix builds through the command line (`radlab prepare --block K/B`, `--merge-blocks
 // B`, `--plan --blocks B`; formfactor/matrix/matrix_blocks.h): the merged cache file holds the
 // one-process build's bits (key, payload, side-file payloads) for 3 and 7 blocks, with raycast and
-// with the hemicube; every refusal (a block index or count out of range, a missing block, a block
-// of another split or scene, a corrupt block or side file, a method not built in blocks) exits 2
-// or 3 naming the block and leaves no matrix file in the cache.
+// exact (blocks of pairs) and with the hemicube (blocks of rows); blocks of pairs compute each
+// pair once (their rays and pair counts add up to the one-process build's); every refusal (a
+// block index or count out of range, a missing block, a block of another split, scene or block
+// format, a corrupt block or side file) exits 2 or 3 naming the block and leaves no matrix file in
+// the cache.
 #include <gtest/gtest.h>
 
 #include <cstddef>
@@ -29,10 +31,13 @@ using radlab::testing::TempDir;
   EXPECT_NE((result).output.find(text), std::string::npos) << (result).output
 
 // builtin:cornell at --subdiv 2: 80 elements, an occluding box (raycast traces rays), emitters.
+// exact clips its visibility (the Cornell box occludes; its adaptive integrals stop short of the
+// tolerance on some pairs, so its row excesses are exercised too).
 std::string experiment(const TempDir& dir, const std::string& method,
                        const std::string& scene = "builtin:cornell") {
   const std::string settings = method == "raycast"    ? "rays = 4\n"
                                : method == "hemicube" ? "resolution = 64\n"
+                               : method == "exact"    ? "visibility = \"clip\"\n"
                                                       : "";
   return dir.write(method + "_" + std::to_string(std::hash<std::string>{}(scene)) + ".toml",
                    "name = \"blocks\"\nscenes = [\"" + scene +
@@ -75,12 +80,28 @@ fs::path only_file(const std::string& folder, const std::string& suffix) {
 }
 
 // The matrix cache header (formfactor/matrix/matrix_cache.cpp): bytes [0, 64) are the format,
-// n, precision, key hash, payload size and payload checksum; [64, 120) the build's record (rays
-// and pair counts, seconds, threads), which differs between any two builds (wall time) and
-// between a one-process build and blocks (raycast shares a pair's visibility between its two
-// rows only within a process); [120, 128) the header checksum over all of it. Everything from
-// byte 128 on is the key text and the payload.
+// n, precision, key hash, payload size and payload checksum; [64, 120) the build's record (rays,
+// kernel evaluations, the three pair counts, seconds, threads), which differs between any two
+// builds (wall time); [120, 128) the header checksum over all of it. Everything from byte 128 on
+// is the key text and the payload.
 constexpr size_t kIdentityBytes = 64, kHeaderBytes = 128;
+
+// The build's record in a matrix file's header: rays, kernel evaluations, pairs culled,
+// unoccluded, traced.
+std::vector<uint64_t> header_costs(const fs::path& matrix_file) {
+  std::vector<uint64_t> costs(5);
+  std::ifstream in(matrix_file, std::ios::binary);
+  in.seekg(kIdentityBytes);
+  in.read(reinterpret_cast<char*>(costs.data()), std::streamsize(costs.size() * sizeof(uint64_t)));
+  return costs;
+}
+
+// The "rays" a block's record holds.
+uint64_t recorded_rays(const std::string& record) {
+  const std::string json = bytes_of(record);
+  const size_t at = json.find("\"rays\": ");
+  return at == std::string::npos ? 0 : std::stoull(json.substr(at + 8));
+}
 
 void expect_same_matrix_file(const fs::path& merged, const fs::path& single) {
   const std::string a = bytes_of(merged), b = bytes_of(single);
@@ -109,14 +130,24 @@ size_t key_text_bytes(const fs::path& matrix_file) {
   return key;
 }
 
-void blocks_then_merge(const std::string& exp, const std::string& cache, size_t count) {
+// Builds the blocks; returns the rays their records hold, summed.
+uint64_t blocks_then_merge(const std::string& exp, const std::string& cache, size_t count) {
+  uint64_t rays = 0;
   for (size_t k = 1; k <= count; ++k) {
-    const Result block = prepare(
-        cache, exp + " --problem 0 --block " + std::to_string(k) + "/" + std::to_string(count));
-    ASSERT_EQ(block.code, 0) << block.output;
+    const std::string record = cache + "_block" + std::to_string(k) + ".json";
+    const Result block = prepare(cache, exp + " --problem 0 --block " + std::to_string(k) + "/" +
+                                            std::to_string(count) + " --record " + record);
+    EXPECT_EQ(block.code, 0) << block.output;
+    rays += recorded_rays(record);
   }
+  return rays;
 }
 
+// `pairs`: blocks of pairs, which compute each pair once: the blocks' rays add up to the
+// one-process build's, and so do the pair counts; the kernel evaluations are the one-process
+// build's for exact (one integral a pair there too) and at most those for raycast (one process
+// integrates F^u once per row, a block of pairs once per pair). Blocks of rows compute each row
+// as one process does (the hemicube shares nothing between rows): the same counts.
 void expect_merge_equals_one_process(const std::string& method, const std::string& side_suffix,
                                      const std::vector<size_t>& counts) {
   TempDir dir;
@@ -128,7 +159,7 @@ void expect_merge_equals_one_process(const std::string& method, const std::strin
   for (size_t count : counts) {
     SCOPED_TRACE(method + " in " + std::to_string(count) + " blocks");
     const std::string cache = dir.file("blocks" + std::to_string(count));
-    blocks_then_merge(exp, cache, count);
+    const uint64_t rays = blocks_then_merge(exp, cache, count);
     EXPECT_EQ(files_ending(cache, ".ffb").size(), count);
     EXPECT_TRUE(files_ending(cache, ".ffm").empty());  // blocks alone are not a matrix
     const std::string record = dir.file("record" + std::to_string(count) + ".json");
@@ -140,6 +171,16 @@ void expect_merge_equals_one_process(const std::string& method, const std::strin
     expect_same_matrix_file(merged, single_matrix);
     expect_same_side_payload(merged.string() + side_suffix, single_matrix.string() + side_suffix,
                              key_text_bytes(single_matrix));
+    const std::vector<uint64_t> whole = header_costs(single_matrix), all = header_costs(merged);
+    EXPECT_EQ(rays, whole[0]) << "the blocks' recorded rays";
+    EXPECT_EQ(all[0], whole[0]) << "rays";
+    if (method == "raycast") {
+      EXPECT_GT(whole[0], 0u);  // the box occludes: rays were cast
+      EXPECT_LE(all[1], whole[1]) << "kernel evaluations";
+    } else {
+      EXPECT_EQ(all[1], whole[1]) << "kernel evaluations";
+    }
+    for (size_t c = 2; c < 5; ++c) EXPECT_EQ(all[c], whole[c]) << "pair count " << c;
     // The preparation after the merge used the merged matrix from the cache, and certified.
     const std::string json = bytes_of(record);
     EXPECT_NE(json.find("\"matrix_from_cache\": true"), std::string::npos) << json;
@@ -149,6 +190,33 @@ void expect_merge_equals_one_process(const std::string& method, const std::strin
 
 TEST(PrepareBlocks, RaycastMergedInThreeAndSevenBlocksIsTheOneProcessBuild) {
   expect_merge_equals_one_process("raycast", ".sigma", {3, 7});
+}
+
+// exact's side file is not a matrix side file (raw: the count of pairs stopped short of the
+// tolerance, then each row's excess), so it is compared whole.
+TEST(PrepareBlocks, ExactMergedInThreeAndSevenBlocksIsTheOneProcessBuild) {
+  TempDir dir;
+  const std::string exp = experiment(dir, "exact");
+  const std::string single = dir.file("single");
+  ASSERT_EQ(prepare(single, exp).code, 0);
+  const fs::path single_matrix = only_file(single, ".ffm");
+  for (size_t count : {3, 7}) {
+    SCOPED_TRACE("exact in " + std::to_string(count) + " blocks");
+    const std::string cache = dir.file("blocks" + std::to_string(count));
+    const uint64_t rays = blocks_then_merge(exp, cache, count);
+    const Result merge = prepare(cache, exp + " --merge-blocks " + std::to_string(count));
+    ASSERT_EQ(merge.code, 0) << merge.output;
+    const fs::path merged = only_file(cache, ".ffm");
+    expect_same_matrix_file(merged, single_matrix);
+    const std::string excess = bytes_of(single_matrix.string() + ".excess");
+    double capped = 0;
+    ASSERT_GE(excess.size(), sizeof capped);
+    std::memcpy(&capped, excess.data(), sizeof capped);
+    EXPECT_GT(capped, 0.0);  // the row excesses hold something to merge
+    EXPECT_EQ(bytes_of(merged.string() + ".excess"), excess);
+    EXPECT_EQ(header_costs(merged), header_costs(single_matrix));
+    EXPECT_EQ(rays, header_costs(single_matrix)[0]);
+  }
 }
 
 TEST(PrepareBlocks, HemicubeMergedInThreeBlocksIsTheOneProcessBuild) {
@@ -164,33 +232,30 @@ TEST(PrepareBlocks, BlockIndexOrCountOutOfRangeIsAUsageError) {
     EXPECT_OUTPUT_HAS(r, "--block");
   }
   EXPECT_EQ(prepare(cache, exp + " --merge-blocks 0").code, 2);
-  // More blocks than the matrix's 80 rows: a block range outside the matrix (invalid input).
-  const Result many = prepare(cache, exp + " --problem 0 --block 1/81");
+  // More blocks of pairs than half the matrix's 80 rows: a block would hold no pairs (invalid
+  // input); the hemicube's blocks of rows go up to the 80 rows.
+  const Result many = prepare(cache, exp + " --problem 0 --block 1/41");
   EXPECT_EQ(many.code, 3) << many.output;
-  EXPECT_OUTPUT_HAS(many, "at most 80 blocks");
+  EXPECT_OUTPUT_HAS(many, "at most 40 blocks of pairs");
+  const Result rows = prepare(cache, experiment(dir, "hemicube") + " --problem 0 --block 1/81");
+  EXPECT_EQ(rows.code, 3) << rows.output;
+  EXPECT_OUTPUT_HAS(rows, "at most 80 blocks)");
   EXPECT_TRUE(files_ending(cache, ".ffb").empty());
   EXPECT_TRUE(files_ending(cache, ".ffm").empty());
 }
 
-// A block is held to the limits by its own work: rows 0 to 25 of 80 elements are 2,080 pairs.
+// A block is held to the limits by its own work: block 1 of 3 of 80 elements holds the pairs of
+// rows 0 to 14, 15 * 79 - 15 * 14 / 2 = 1,080 of the 3,160 (a third is 1,053.3), 2,160 entries.
 TEST(PrepareBlocks, ABlockIsHeldToTheLimitsByItsOwnPairs) {
   TempDir dir;
   const std::string exp = experiment(dir, "raycast"), cache = dir.file("cache");
   const Result refused = prepare(cache, exp + " --problem 0 --block 1/3", "--limits pairs=2000");
   EXPECT_EQ(refused.code, 3) << refused.output;
-  EXPECT_OUTPUT_HAS(refused, "block 1/3 (rows 0 to 25) of the form-factor matrix of 80 elements");
-  EXPECT_OUTPUT_HAS(refused, "2080 pairs, above the limit of 2000 pairs");
+  EXPECT_OUTPUT_HAS(refused,
+                    "block 1/3 (pairs of rows 0 to 14) of the form-factor matrix of 80 elements");
+  EXPECT_OUTPUT_HAS(refused, "2160 pairs, above the limit of 2000 pairs");
   EXPECT_TRUE(files_ending(cache, ".ffb").empty());
-  EXPECT_EQ(prepare(cache, exp + " --problem 0 --block 1/3", "--limits pairs=2100").code, 0);
-}
-
-TEST(PrepareBlocks, AMethodThatIntegratesEachPairOnceIsNotBuiltInBlocks) {
-  TempDir dir;
-  // The cube: a convex enclosure, where exact needs no visibility.
-  const Result r = prepare(dir.file("cache"),
-                           experiment(dir, "exact", "builtin:cube") + " --problem 0 --block 1/2");
-  EXPECT_EQ(r.code, 2) << r.output;
-  EXPECT_OUTPUT_HAS(r, "form factors 'exact': not built in blocks");
+  EXPECT_EQ(prepare(cache, exp + " --problem 0 --block 1/3", "--limits pairs=2200").code, 0);
 }
 
 // Each refusal names the block and its file, exits 3 and writes no matrix.
@@ -207,7 +272,8 @@ TEST(PrepareBlocks, AMissingBlockIsNamed) {
   const std::string exp = experiment(dir, "raycast"), cache = dir.file("cache");
   for (const char* block : {"1/3", "3/3"})
     ASSERT_EQ(prepare(cache, exp + " --problem 0 --block " + block).code, 0);
-  expect_refused(exp, cache, 3, "1 missing (nothing written):\n  block 2/3 (rows 26 to 52)");
+  expect_refused(exp, cache, 3,
+                 "1 missing (nothing written):\n  block 2/3 (pairs of rows 15 to 33)");
   EXPECT_EQ(prepare(cache, exp + " --problem 0 --block 2/3").code, 0);
   EXPECT_EQ(prepare(cache, exp + " --merge-blocks 3").code, 0);  // complete now
 }
@@ -222,7 +288,7 @@ TEST(PrepareBlocks, ABlockOfAnotherSplitOrSceneIsRefused) {
   blocks_then_merge(exp, other_split, 4);
   fs::copy_file(only_file(other_split, ".block-2-of-4.ffb"), second,
                 fs::copy_options::overwrite_existing);
-  expect_refused(exp, cache, 3, second.string() + ": block 2/3 (rows 26 to 52)");
+  expect_refused(exp, cache, 3, second.string() + ": block 2/3 (pairs of rows 15 to 33)");
   expect_refused(exp, cache, 3, "block=2/4");
   // Block 2 of 3 of another scene (another mesh: another key).
   const std::string other_scene = dir.file("scene");
@@ -242,10 +308,10 @@ TEST(PrepareBlocks, ACorruptBlockOrSideFileIsRefused) {
   std::string damaged = intact;
   damaged[damaged.size() - 3] ^= 0x10;  // a bit of the last value
   std::ofstream(third, std::ios::binary | std::ios::trunc) << damaged;
-  expect_refused(exp, cache, 3, third.string() + ": block 3/3 (rows 53 to 79)");
+  expect_refused(exp, cache, 3, third.string() + ": block 3/3 (pairs of rows 34 to 79)");
   expect_refused(exp, cache, 3, "checksum mismatch");
   std::ofstream(third, std::ios::binary | std::ios::trunc) << intact;
-  const fs::path sigma = third.string() + ".sigma";
+  const fs::path sigma = third.string() + ".pairstate";
   std::string side = bytes_of(sigma);
   side[side.size() - 12] ^= 0x10;
   std::ofstream(sigma, std::ios::binary | std::ios::trunc) << side;
@@ -257,15 +323,21 @@ TEST(PrepareBlocks, PlanGivesEachBlockAndTheMerge) {
   const std::string exp = experiment(dir, "raycast"), cache = dir.file("cache");
   const Result plan = prepare(cache, exp + " --plan --blocks 3");
   ASSERT_EQ(plan.code, 0) << plan.output;
+  // Blocks of 1,080, 1,045 and 1,035 of the 3,160 pairs (rows 0-14, 15-33, 34-79).
   for (const char* part :
-       {"\"block\": 1,", "\"block\": 3,", "\"first_row\": 53,", "\"end_row\": 80,", "\"merge\": {"})
+       {"\"block_split\": \"pairs\"", "\"block\": 1,", "\"pairs\": 1080,", "\"block\": 3,",
+        "\"first_row\": 34,", "\"end_row\": 80,", "\"pairs\": 1035,", "\"merge\": {"})
     EXPECT_OUTPUT_HAS(plan, part);
   EXPECT_FALSE(fs::exists(cache));  // --plan builds nothing
-  const Result exact =
-      prepare(cache, experiment(dir, "exact", "builtin:cube") + " --plan --blocks 3");
+  const Result exact = prepare(cache, experiment(dir, "exact") + " --plan --blocks 3");
   ASSERT_EQ(exact.code, 0) << exact.output;
-  EXPECT_OUTPUT_HAS(exact, "\"blocks\": [],");
-  EXPECT_OUTPUT_HAS(exact, "are not built in blocks");
+  EXPECT_OUTPUT_HAS(exact, "\"block_split\": \"pairs\"");
+  EXPECT_OUTPUT_HAS(exact, "\"first_row\": 34,");
+  const Result hemicube = prepare(cache, experiment(dir, "hemicube") + " --plan --blocks 3");
+  ASSERT_EQ(hemicube.code, 0) << hemicube.output;
+  EXPECT_OUTPUT_HAS(hemicube, "\"block_split\": \"rows\"");
+  EXPECT_OUTPUT_HAS(hemicube, "\"first_row\": 53,");
+  EXPECT_OUTPUT_HAS(hemicube, "\"entries\": 2160,");
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 
 #include <filesystem>
 #include <sstream>
+#include <string>
 
 #include "core/error.h"
 #include "core/json_reader.h"
@@ -84,27 +85,40 @@ rows = 10
 }
 
 // Blocked builds (formfactor/matrix/matrix_blocks.h) are estimated by the one estimate's rates:
-// the blocks' matrix seconds add up to the whole matrix's (every row in exactly one block), each
-// block holds its rows in double (8n bytes a row), and the merge holds what the whole
+// the blocks' matrix seconds add up to the whole matrix's (every row in exactly one block of
+// rows; every off-diagonal entry in exactly one block of pairs: n (n - 1) of the n^2 entries the
+// whole is estimated by), each block of rows holds its rows in double (8n bytes a row), each
+// block of pairs its entries twice (16 bytes an entry), and the merge holds what the whole
 // preparation holds while computing no rows.
 TEST(PreparationEstimate, BlocksAddUpToTheWholeMatrix) {
   ProblemSpec spec;
   spec.scene = "builtin:cornell";
   spec.mesh.subdivisions = 4;
-  for (const char* method : {"raycast", "hemicube"}) {
+  const size_t n = 320;
+  for (const char* method : {"raycast", "exact", "hemicube"}) {
     SCOPED_TRACE(method);
     spec.ff_method = method;
-    const PreparationEstimate whole = estimate_preparation(spec, 320, 2);
+    const bool pairs = std::string(method) != "hemicube";
+    const PreparationEstimate whole = estimate_preparation(spec, n, 2);
     double sum = 0;
-    for (size_t rows : {106, 107, 107}) {
-      const PreparationEstimate block = estimate_matrix_block(spec, 320, rows, 2);
-      EXPECT_EQ(block.matrix_bytes, 8.0 * double(rows) * 320);
+    size_t pairs_held = 0;
+    for (size_t k = 1; k <= 3; ++k) {
+      const MatrixBlock b = matrix_block(n, k, 3, pairs ? BlockSplit::kPairs : BlockSplit::kRows);
+      const PreparationEstimate block = estimate_matrix_block(spec, n, b, 2);
+      EXPECT_EQ(block.matrix_bytes,
+                pairs ? 16.0 * 2.0 * double(b.pairs()) : 8.0 * double(b.end - b.first) * n);
       EXPECT_EQ(block.reference_bytes, 0.0);
       EXPECT_EQ(block.method_bytes, whole.method_bytes);  // each process has the method's buffers
       sum += block.matrix_seconds;
+      pairs_held += b.pairs();
     }
-    EXPECT_NEAR(sum, whole.matrix_seconds, 1e-12 * whole.matrix_seconds);  // rounding of 3 sums
-    const PreparationEstimate merge = estimate_block_merge(spec, 320, 2);
+    if (pairs) {
+      EXPECT_EQ(pairs_held, n * (n - 1) / 2);
+    }
+    const double entries = pairs ? double(n - 1) / double(n) : 1.0;
+    // rounding of 3 sums
+    EXPECT_NEAR(sum, entries * whole.matrix_seconds, 1e-12 * whole.matrix_seconds);
+    const PreparationEstimate merge = estimate_block_merge(spec, n, 2);
     EXPECT_EQ(merge.total_bytes(), whole.total_bytes() - whole.method_bytes);
     EXPECT_LT(merge.seconds, whole.seconds);  // reading 0.8 MB, not computing 102,400 pairs
   }
