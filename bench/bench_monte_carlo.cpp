@@ -1,7 +1,9 @@
 // Ray throughput of the Monte Carlo solvers against raw Embree (issue 32's target: a stochastic
 // Jacobi step casts rays at >= 0.8 of raw Embree single-ray throughput on the same scene and core).
 //
-// Scene: the Cornell box at --subdiv 16 (5,120 elements, bench_scenes.h). One thread (TBB limited
+// Scenes: the Cornell box at --subdiv 16 (5,120 elements, bench_scenes.h), where the step was
+// tuned, and builtin:office at --subdiv 4 (7,008 elements, two furnished cubicles: many small
+// occluders), where it was not (BM_.../cornell and BM_.../office). One thread (TBB limited
 // to one), CPU time of this thread (bench_clock.h). Each iteration, interleaved so the machine's
 // drift cancels in the ratios:
 //   - one step of stochastic-jacobi with 2^17 rays (the whole step: the power distribution over
@@ -98,20 +100,24 @@ RawRays raw_rays(const Mesh& mesh, const Radiosity& B) {
   return r;
 }
 
-void BM_StochasticJacobiAgainstRawEmbree(benchmark::State& state) {
+void BM_StochasticJacobiAgainstRawEmbree(benchmark::State& state,
+                                         const bench::SceneMesh& (*scene)()) {
   tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
-  const bench::SceneMesh& c = bench::cornell();
+  const bench::SceneMesh& c = scene();
   const RaycastFormFactors unused_rows(c.scene, c.mesh, RaycastOptions{});  // never read
   const System system(c.scene, c.mesh, unused_rows);
   auto jacobi = make("stochastic-jacobi", {"rays=" + std::to_string(kRays)});
   auto walks = make("random-walk", {"paths=" + std::to_string(kRays / 4)});
   jacobi->init(system);
   walks->init(system);
-  // Past the incremental steps (8 on this box), untimed: every timed step is a regular one.
+  // Past the incremental steps (8 on the box), untimed: the timed steps are regular ones.
   for (int k = 0; k < 12; ++k) jacobi->step();
   const RawRays raw = raw_rays(c.mesh, jacobi->solution());
   const RawRays sorted = by_source(raw);
-  const double t_near = 1e-6;  // as the solvers' (a millionth of the box's ~1 m size)
+  // As the solvers' (element_rays.cpp): a millionth of the scene's bounding diagonal.
+  Vec3 low(1e300), high(-1e300);
+  for (const Vec3& v : c.mesh.vertices) low = glm::min(low, v), high = glm::max(high, v);
+  const double t_near = 1e-6 * glm::length(high - low);
   double sj_seconds = 0.0, embree_seconds = 0.0, sorted_seconds = 0.0, stream_seconds = 0.0;
   double rw_seconds = 0.0;
   std::vector<RayHit> stream_hits(kRays);
@@ -161,7 +167,12 @@ void BM_StochasticJacobiAgainstRawEmbree(benchmark::State& state) {
   state.counters["sj_vs_embree_stream_sorted"] = sj / embree_stream;
   state.counters["rw_vs_embree"] = rw / embree;
 }
-BENCHMARK(BM_StochasticJacobiAgainstRawEmbree)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK_CAPTURE(BM_StochasticJacobiAgainstRawEmbree, cornell, &bench::cornell)
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(2.0);
+BENCHMARK_CAPTURE(BM_StochasticJacobiAgainstRawEmbree, office, &bench::office_traced)
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(2.0);
 
 }  // namespace
 }  // namespace radlab

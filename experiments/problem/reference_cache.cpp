@@ -38,6 +38,39 @@ void append(std::string& out, const T* data, size_t count) {
   out.append(reinterpret_cast<const char*>(data), count * sizeof(T));
 }
 
+// A cache file's bytes without their trailing checksum, once its magic (the first 8 bytes), its
+// format version (the 4 after) and that checksum are verified; nullopt when it is missing or
+// unreadable (`why` empty: a miss) or fails (`why` says how: to be distrusted).
+std::optional<std::string> read_verified(const std::filesystem::path& file, const char* magic,
+                                         uint32_t version, size_t header_bytes, std::string& why) {
+  why.clear();
+  std::error_code ec;
+  if (!std::filesystem::exists(file, ec)) return std::nullopt;
+  std::ifstream in(file, std::ios::binary);
+  if (!in) return std::nullopt;  // vanished or unreadable: a miss
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  std::string bytes = buffer.str();
+  uint32_t stored_version = 0;
+  if (bytes.size() < header_bytes + sizeof(uint64_t)) {
+    why = "truncated";
+  } else if (std::memcmp(bytes.data(), magic, 8) != 0) {
+    why = "not a radlab cache file of this kind";
+  } else if (std::memcpy(&stored_version, bytes.data() + 8, sizeof stored_version),
+             stored_version != version) {
+    why = "stale format version";
+  } else {
+    const size_t body = bytes.size() - sizeof(uint64_t);
+    uint64_t checksum = 0;
+    std::memcpy(&checksum, bytes.data() + body, sizeof checksum);
+    if (hash_bytes(bytes.data(), body, kChecksumSeed) != checksum)
+      why = "checksum mismatch (corrupt)";
+    bytes.resize(body);
+  }
+  if (!why.empty()) return std::nullopt;
+  return bytes;
+}
+
 }  // namespace
 
 ReferenceCacheKey reference_cache_key(const MatrixCacheKey& matrix_key, bool symmetrised,
@@ -125,28 +158,18 @@ uint64_t solution_hash(const Radiosity& B) {
 std::optional<StreamedCheck> ReferenceCache::load_check(const ReferenceCacheKey& key,
                                                         const Radiosity& B) const {
   const std::filesystem::path file = check_path(key);
-  std::error_code ec;
-  if (!std::filesystem::exists(file, ec)) return std::nullopt;
   auto reject = [&](const std::string& why) -> std::optional<StreamedCheck> {
     folder_.distrust(file, "its stored residual pass: " + why);
     return std::nullopt;
   };
-  std::ifstream in(file, std::ios::binary);
-  if (!in) return std::nullopt;
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  const std::string bytes = buffer.str();
+  std::string why;
+  const std::optional<std::string> file_bytes =
+      read_verified(file, kCheckMagic, kCheckFormatVersion, sizeof(CheckHeader), why);
+  if (!file_bytes) return why.empty() ? std::nullopt : reject(why);
+  const std::string& bytes = *file_bytes;
+  const size_t body = bytes.size();
   CheckHeader h{};
-  if (bytes.size() < sizeof h + sizeof(uint64_t)) return reject("truncated");
   std::memcpy(&h, bytes.data(), sizeof h);
-  if (std::memcmp(h.magic, kCheckMagic, sizeof kCheckMagic) != 0)
-    return reject("not a radlab reference check");
-  if (h.version != kCheckFormatVersion) return reject("stale format version");
-  const size_t body = bytes.size() - sizeof(uint64_t);
-  uint64_t checksum = 0;
-  std::memcpy(&checksum, bytes.data() + body, sizeof checksum);
-  if (hash_bytes(bytes.data(), body, kChecksumSeed) != checksum)
-    return reject("checksum mismatch (corrupt)");
   if (h.channels != uint32_t(B.channels()) || h.n != B.size())
     return reject("stored for another system");
   if (body != sizeof h + h.key_text_bytes + (h.channels + 2 * h.n) * sizeof(double))
@@ -196,28 +219,18 @@ std::optional<Reference> ReferenceCache::load(
     const ReferenceCacheKey& key, const System& system,
     const std::function<void(Reference&)>& recertify) const {
   const std::filesystem::path file = path(key);
-  std::error_code ec;
-  if (!std::filesystem::exists(file, ec)) return std::nullopt;
   auto reject = [&](const std::string& why) -> std::optional<Reference> {
     folder_.distrust(file, why);
     return std::nullopt;
   };
-  std::ifstream in(file, std::ios::binary);
-  if (!in) return std::nullopt;  // vanished or unreadable: a miss
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  const std::string bytes = buffer.str();
-
+  std::string why;
+  const std::optional<std::string> file_bytes =
+      read_verified(file, kMagic, kFormatVersion, sizeof(Header), why);
+  if (!file_bytes) return why.empty() ? std::nullopt : reject(why);
+  const std::string& bytes = *file_bytes;
+  const size_t body = bytes.size();
   Header h{};
-  if (bytes.size() < sizeof h + sizeof(uint64_t)) return reject("truncated");
   std::memcpy(&h, bytes.data(), sizeof h);
-  if (std::memcmp(h.magic, kMagic, sizeof kMagic) != 0) return reject("not a radlab reference");
-  if (h.version != kFormatVersion) return reject("stale format version");
-  const size_t body = bytes.size() - sizeof(uint64_t);
-  uint64_t checksum = 0;
-  std::memcpy(&checksum, bytes.data() + body, sizeof checksum);
-  if (hash_bytes(bytes.data(), body, kChecksumSeed) != checksum)
-    return reject("checksum mismatch (corrupt)");
   if ((h.channels != 1 && h.channels != 3) || h.n != system.size() ||
       int(h.channels) != system.channels())
     return reject("stored for another system");

@@ -97,6 +97,26 @@ void check_device(RTCDevice device, const char* what) {
     throw NumericalError(std::string("Embree failed during ") + what + " (error " +
                          std::to_string(int(error)) + ")");
 }
+
+// One ray of a closest-hit query, in Embree's single-precision layout (single calls and streams).
+inline void set_ray(RTCRayHit& rh, const Vec3& o, const Vec3& d, double t_near, double t_far,
+                    unsigned id) {
+  rh.ray.org_x = float(o.x);
+  rh.ray.org_y = float(o.y);
+  rh.ray.org_z = float(o.z);
+  rh.ray.dir_x = float(d.x);
+  rh.ray.dir_y = float(d.y);
+  rh.ray.dir_z = float(d.z);
+  rh.ray.tnear = float(t_near);
+  rh.ray.tfar = float(t_far);
+  rh.ray.time = 0.0f;
+  rh.ray.mask = 0xFFFFFFFFu;
+  rh.ray.id = id;
+  rh.ray.flags = 0;
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+}
+
 }  // namespace
 
 EmbreeScene::EmbreeScene(const Mesh& mesh) : impl_(std::make_unique<Impl>()) {
@@ -258,20 +278,7 @@ RayHit EmbreeScene::intersect(const Vec3& o, const Vec3& d, double t_near, doubl
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRayHit rh;
-  rh.ray.org_x = float(o.x);
-  rh.ray.org_y = float(o.y);
-  rh.ray.org_z = float(o.z);
-  rh.ray.dir_x = float(d.x);
-  rh.ray.dir_y = float(d.y);
-  rh.ray.dir_z = float(d.z);
-  rh.ray.tnear = float(t_near);
-  rh.ray.tfar = float(t_far);
-  rh.ray.time = 0.0f;
-  rh.ray.mask = 0xFFFFFFFFu;
-  rh.ray.id = 0;
-  rh.ray.flags = 0;
-  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  set_ray(rh, o, d, t_near, t_far, 0);
   rtcIntersect1(impl_->scene, &context, &rh);
   RayHit result;
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return result;
@@ -291,23 +298,7 @@ void EmbreeScene::intersect_stream(const Vec3* origins, const Vec3* directions, 
   for (size_t first = 0; first < count; first += kChunk) {
     const size_t size = std::min(kChunk, count - first);
     for (size_t k = 0; k < size; ++k) {
-      RTCRayHit& rh = rays[k];
-      const Vec3& o = origins[first + k];
-      const Vec3& d = directions[first + k];
-      rh.ray.org_x = float(o.x);
-      rh.ray.org_y = float(o.y);
-      rh.ray.org_z = float(o.z);
-      rh.ray.dir_x = float(d.x);
-      rh.ray.dir_y = float(d.y);
-      rh.ray.dir_z = float(d.z);
-      rh.ray.tnear = float(t_near);
-      rh.ray.tfar = float(t_far);
-      rh.ray.time = 0.0f;
-      rh.ray.mask = 0xFFFFFFFFu;
-      rh.ray.id = unsigned(k);
-      rh.ray.flags = 0;
-      rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-      rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+      set_ray(rays[k], origins[first + k], directions[first + k], t_near, t_far, unsigned(k));
     }
     rtcIntersect1M(impl_->scene, &context, rays, unsigned(size), sizeof(RTCRayHit));
     for (size_t k = 0; k < size; ++k) {

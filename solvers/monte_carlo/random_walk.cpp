@@ -16,8 +16,9 @@
 // largest channel no weight ever grows). A walk also ends when its ray escapes or meets a back
 // face. Walks at rho -> 1 must end: a scene with any reflectance >= 1 is refused (InputError,
 // exit 3, naming the element and channel), even where the system has a finite solution (hosp.mgf
-// has an element reflecting 1 in red: refused there; stochastic-jacobi runs). Below 1 the walk length is geometric, at most
-// 1/(1 - max rho) bounces on average, so no cap (and no cap's bias) is needed.
+// has an element reflecting 1 in red: refused there; stochastic-jacobi runs). Below 1 the walk
+// length is geometric, at most 1/(1 - max rho) bounces on average, so no cap (and no cap's bias) is
+// needed.
 //
 // Shooting walks (`walks=shooting`) estimate the reflected power P_j - Phi_j = rho_j I_j (I_j the
 //   power arriving at j): a walk starts on emitter i with probability p_i proportional to its
