@@ -57,13 +57,14 @@ MatrixCacheKey matrix_cache_key(const Mesh& mesh, const std::string& method,
 std::filesystem::path default_cache_dir();
 
 // Side files beside a cached matrix (`<matrix file><suffix>`: raycast's ".sigma", the rows'
-// sampling errors and quadrature excesses): a magic, the payload size, the matrix file's own
-// 128-byte header and key text as they are when the side file is written, the payload, and a
-// checksum of all of it. A side file is read back only when that header and key are the matrix
-// file's current ones (the same key and the same build, whose payload checksum the header
-// holds), its size is the one expected and the checksum matches: a zeroed file, edited values,
-// or a file from another key or an earlier build of this one is not used (the caller recomputes
-// what it held). Written to a temporary and renamed; failures are silent (best effort).
+// sampling errors and quadrature excesses; the hemicube's ".emitters"; exact's ".excess"): a magic,
+// the payload size, the matrix file's own 128-byte header and key text as they are when the side
+// file is written, the payload, and a checksum of all of it. A side file is read back only when
+// that header and key are the matrix file's current ones (the same key and the same build, whose
+// payload checksum the header holds), its size is the one expected and the checksum matches: a
+// zeroed file, edited values, or a file from another key or an earlier build of this one is not
+// used (the caller recomputes what it held). Written to a temporary and renamed; failures are
+// silent (best effort).
 bool write_matrix_side_file(const std::filesystem::path& matrix_file, const std::string& suffix,
                             const void* payload, size_t bytes);
 std::optional<std::vector<char>> read_matrix_side_file(const std::filesystem::path& matrix_file,
@@ -72,8 +73,9 @@ std::optional<std::vector<char>> read_matrix_side_file(const std::filesystem::pa
 
 class MatrixCache {
  public:
-  // 2: the sparse layout (FormFactorMatrix::sparse()) is stored as such.
-  static constexpr uint32_t kFormatVersion = 2;
+  // 2: the sparse layout (FormFactorMatrix::sparse()) is stored as such. 3: exact's ".excess"
+  // is a side file as below (it was raw doubles without a checksum).
+  static constexpr uint32_t kFormatVersion = 3;
 
   explicit MatrixCache(std::filesystem::path folder)
       : folder_(std::move(folder), "form-factor cache", "matrix", "rebuilt") {}

@@ -5,17 +5,18 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <glm/geometric.hpp>
 #include <limits>
 #include <optional>
 
 #include "core/error.h"
+#include "core/log.h"
 #include "core/text.h"
 #include "formfactor/integrate/contour_integral.h"
 #include "formfactor/integrate/pair_geometry.h"
 #include "formfactor/integrate/polygon_integral.h"
 #include "formfactor/integrate/quadrature.h"
+#include "formfactor/matrix/matrix_cache.h"
 #include "formfactor/methods/method_infos.h"
 #include "formfactor/methods/raycast.h"
 #include "formfactor/visibility/occlusion.h"
@@ -718,25 +719,29 @@ void save_row_excess(const ExactFormFactors& method, const std::string& matrix_f
   const std::vector<double> rows = method.row_excesses();
   std::vector<double> data(rows.size() + 1, double(method.pairs_capped()));
   std::copy(rows.begin(), rows.end(), data.begin() + 1);
-  const std::string temporary = matrix_file + ".excess.tmp";
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    out.write(reinterpret_cast<const char*>(data.data()),
-              std::streamsize(data.size() * sizeof(double)));
-    if (!out) return;  // without it the cached matrix is not used (load_row_excess)
-  }
-  std::error_code ignored;
-  std::filesystem::rename(temporary, matrix_file + ".excess", ignored);
+  // Bound to the matrix file's header and key, under a checksum (matrix_cache.h), as raycast's
+  // ".sigma" is: a flipped bit in a row's excess would otherwise understate its error unseen.
+  // Best effort: without it the cached matrix is not used (load_row_excess).
+  write_matrix_side_file(matrix_file, ".excess", data.data(), data.size() * sizeof(double));
 }
 
 bool load_row_excess(const ExactFormFactors& method, const std::string& matrix_file, size_t n) {
-  std::ifstream in(matrix_file + ".excess", std::ios::binary);
-  if (!in) return false;
+  const std::string side = matrix_file + ".excess";
+  const auto bytes = read_matrix_side_file(matrix_file, ".excess", (n + 1) * sizeof(double));
   std::vector<double> data(n + 1);
-  in.read(reinterpret_cast<char*>(data.data()), std::streamsize(data.size() * sizeof(double)));
-  if (!in || in.peek() != std::char_traits<char>::eof()) return false;
-  for (double v : data)
-    if (!(v >= 0.0) || !std::isfinite(v)) return false;
+  if (bytes) std::memcpy(data.data(), bytes->data(), bytes->size());
+  bool ours = bool(bytes);
+  for (double v : data) ours = ours && v >= 0.0 && std::isfinite(v);
+  if (!ours) {
+    // Missing is the quiet case (a matrix cached by another method's build path); a file that is
+    // there but fails its checks is named, since its matrix is rebuilt for it.
+    std::error_code ec;
+    if (std::filesystem::exists(side, ec))
+      log::warning(side +
+                   ": refused (checksum, size, matrix header or value check failed); the "
+                   "matrix is rebuilt");
+    return false;
+  }
   const size_t pairs = size_t(data[0]);
   data.erase(data.begin());
   method.set_row_excesses(std::move(data), pairs);

@@ -259,11 +259,13 @@ class ExactFormFactors final : public FormFactorMethod {
   mutable size_t loaded_pairs_ = 0;                    // pairs_capped of a loaded matrix
 };
 
-// clip mode's row excesses beside a cached matrix file (`matrix_file` + ".excess": the count of
-// pairs stopped short, then n doubles; written to a temporary name and renamed). load_ returns
-// false (and changes nothing) when the file is missing, of the wrong size or holds a negative or
-// non-finite value: the caller must then not use the cached matrix (its stated error would
-// lack the pairs stopped short), but rebuild it.
+// The row excesses beside a cached matrix file (`matrix_file` + ".excess": the count of pairs
+// stopped short, then n doubles, as a matrix side file: bound to the matrix file's header and key
+// under a checksum, write_matrix_side_file in formfactor/matrix/matrix_cache.h). load_ returns
+// false (and changes nothing) when the file is missing, of the wrong size, fails its checksum or
+// its matrix binding, or holds a negative or non-finite value (a file that is there but refused
+// is named in a warning): the caller must then not use the cached matrix (its stated error
+// would lack the pairs stopped short), but rebuild it.
 void save_row_excess(const ExactFormFactors& method, const std::string& matrix_file);
 bool load_row_excess(const ExactFormFactors& method, const std::string& matrix_file, size_t n);
 

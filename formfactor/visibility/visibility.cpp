@@ -409,7 +409,7 @@ double Visibility::fraction(size_t i, size_t j, RowCost& cost, double* sigma_out
         known = slot->load(std::memory_order_acquire);
       } else {  // the other row of the pair has been here: the same V, no work
         ++((known & kTracedFlag) ? cost.pairs_traced : cost.pairs_unoccluded);
-        if (sigma_out) *sigma_out = memo_sigma_[index] / kSigmaSteps;
+        if (sigma_out) *sigma_out = sigma_of_code(memo_sigma_[index]);
         return double(int(known & kCountMask) - 1) / kSteps;
       }
     }
@@ -426,15 +426,23 @@ double Visibility::fraction(size_t i, size_t j, RowCost& cost, double* sigma_out
   // A pair with a large form factor gets more rays: see rays_for.
   double sigma = 0.0;
   const int steps = traced ? trace(i, j, rays_for(i, j), cost, sigma) : kSteps;
-  // Rounded up to the memo's steps, so both rows of the pair see the same (larger) value.
-  sigma = std::min(1.0, std::ceil(sigma * kSigmaSteps) / kSigmaSteps);
-  if (sigma_out) *sigma_out = sigma;
+  // What the memo holds, for this row too, so both rows of the pair see the same (larger) value.
+  const uint16_t sigma_steps = sigma_code(sigma);
+  if (sigma_out) *sigma_out = sigma_of_code(sigma_steps);
   if (slot) {
-    memo_sigma_[index] = uint16_t(std::min(65535.0, sigma * kSigmaSteps));
+    memo_sigma_[index] = sigma_steps;
     slot->store(uint16_t((steps + 1) | (traced ? kTracedFlag : 0)), std::memory_order_release);
     release.slot = nullptr;
   }
   return double(steps) / kSteps;
+}
+
+uint16_t Visibility::sigma_code(double sigma) {
+  // V lies in [0,1], so 1 bounds its error; NaN (no usable weight) is taken as that bound.
+  if (!(sigma < 1.0)) return kSigmaOne;
+  const double steps = std::ceil(std::max(sigma, 0.0) * kSigmaSteps);
+  // Steps 65535 and 65536 both become the code for 1: rounded up, never down.
+  return steps >= double(kSigmaOne) ? kSigmaOne : uint16_t(steps);
 }
 
 void Visibility::remember_pairs(bool on) const {

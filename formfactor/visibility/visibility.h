@@ -109,6 +109,15 @@ class Visibility {
   // Not thread-safe itself; fraction() stays thread-safe while it is on. Values are unchanged.
   void remember_pairs(bool on) const;
 
+  // The standard error both rows of a pair get (fraction's `sigma`), held in the memo's 16 bits:
+  // rounded up to steps of 2^-16, with code 65535 standing for 1 (the bound; also what NaN
+  // gives: nothing known). The first row gets sigma_of_code(sigma_code(s)) too, not s rounded
+  // on its own, so the two rows, one process or blocks, any thread order, see the same bits.
+  static uint16_t sigma_code(double sigma);
+  static double sigma_of_code(uint16_t code) {
+    return code == kSigmaOne ? 1.0 : double(code) / kSigmaSteps;
+  }
+
  private:
   // V in steps of 1/kSteps from R rays; its standard error in `sigma`.
   int trace(size_t i, size_t j, int R, RowCost& cost, double& sigma) const;
@@ -208,9 +217,10 @@ class Visibility {
   static constexpr int kSteps = 1 << 14;
   static constexpr uint16_t kTracedFlag = 0x8000, kCountMask = 0x7FFF, kBusy = 0xFFFF;
   mutable std::unique_ptr<std::atomic<uint16_t>[]> memo_;
-  // Beside it, the standard error of each pair's V in steps of 2^-16, rounded up (written before
-  // the pair's memo_ slot is released, so a reader that sees V sees it).
+  // Beside it, the standard error of each pair's V as sigma_code (written before the pair's memo_
+  // slot is released, so a reader that sees V sees it).
   static constexpr double kSigmaSteps = 65536.0;
+  static constexpr uint16_t kSigmaOne = 0xFFFF;
   mutable std::unique_ptr<uint16_t[]> memo_sigma_;
 };
 

@@ -192,14 +192,15 @@ TEST(PrepareBlocks, RaycastMergedInThreeAndSevenBlocksIsTheOneProcessBuild) {
   expect_merge_equals_one_process("raycast", ".sigma", {3, 7});
 }
 
-// exact's side file is not a matrix side file (raw: the count of pairs stopped short of the
-// tolerance, then each row's excess), so it is compared whole.
+// exact's side file ".excess" (the count of pairs stopped short of the tolerance, then each row's
+// excess) is a matrix side file too; its payload's first double must be nonzero here.
 TEST(PrepareBlocks, ExactMergedInThreeAndSevenBlocksIsTheOneProcessBuild) {
   TempDir dir;
   const std::string exp = experiment(dir, "exact");
   const std::string single = dir.file("single");
   ASSERT_EQ(prepare(single, exp).code, 0);
   const fs::path single_matrix = only_file(single, ".ffm");
+  const size_t key_bytes = key_text_bytes(single_matrix);
   for (size_t count : {3, 7}) {
     SCOPED_TRACE("exact in " + std::to_string(count) + " blocks");
     const std::string cache = dir.file("blocks" + std::to_string(count));
@@ -209,11 +210,13 @@ TEST(PrepareBlocks, ExactMergedInThreeAndSevenBlocksIsTheOneProcessBuild) {
     const fs::path merged = only_file(cache, ".ffm");
     expect_same_matrix_file(merged, single_matrix);
     const std::string excess = bytes_of(single_matrix.string() + ".excess");
+    const size_t start = 16 + kHeaderBytes + key_bytes;  // expect_same_side_payload's layout
     double capped = 0;
-    ASSERT_GE(excess.size(), sizeof capped);
-    std::memcpy(&capped, excess.data(), sizeof capped);
+    ASSERT_GE(excess.size(), start + sizeof capped + 8);
+    std::memcpy(&capped, excess.data() + start, sizeof capped);
     EXPECT_GT(capped, 0.0);  // the row excesses hold something to merge
-    EXPECT_EQ(bytes_of(merged.string() + ".excess"), excess);
+    expect_same_side_payload(merged.string() + ".excess", single_matrix.string() + ".excess",
+                             key_bytes);
     EXPECT_EQ(header_costs(merged), header_costs(single_matrix));
     EXPECT_EQ(rays, header_costs(single_matrix)[0]);
   }

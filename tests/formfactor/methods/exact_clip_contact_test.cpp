@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "formfactor/matrix/diagnostics.h"
+#include "formfactor/matrix/matrix_cache.h"
 #include "formfactor/methods/exact.h"
 #include "formfactor/methods/raycast.h"
 #include "scene/mesh.h"
@@ -153,9 +154,15 @@ TEST(ClipContact, RecomputedRowsDoNotInflateTheStatedError) {
   EXPECT_EQ(method.pairs_capped(), pairs);
 
   // Kept beside a cached matrix and restored with it (a loaded matrix states the same error);
-  // a file of the wrong size is refused, so the caller rebuilds instead of understating.
+  // a file of the wrong size is refused, so the caller rebuilds instead of understating. The
+  // side file is bound to its matrix file's header (matrix_cache.h): a real cache file, whose
+  // values do not matter here.
   testing::TempDir dir;
-  const std::string file = dir.file("matrix.ffm");
+  const MatrixCache cache(dir.path());
+  const MatrixCacheKey key =
+      matrix_cache_key(mesh, "exact", method.parameters(), Precision::kDouble);
+  ASSERT_TRUE(cache.store(key, FormFactorMatrix(mesh.size(), Precision::kDouble), BuildReport{}));
+  const std::string file = cache.path(key).string();
   save_row_excess(method, file);
   const ExactFormFactors restored(loaded.scene, mesh, options);
   EXPECT_EQ(restored.largest_row_excess(), 0.0);

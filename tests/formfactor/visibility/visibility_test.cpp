@@ -9,6 +9,7 @@
 #include <cstring>
 #include <glm/geometric.hpp>
 #include <iostream>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -183,6 +184,64 @@ TEST(VisibilityOwnPolygonFilter, EveryRayCountIsSymmetricAndBounded) {
         ASSERT_EQ(std::round(v * 16384), v * 16384) << rays;
       }
   }
+}
+
+// A pair's standard error is kept in the pair memo's 16 bits (Visibility::sigma_code). The value
+// a row gets must be the memo's value, whichever row computes the pair: rounded up (a bound, never
+// below the estimate), at most one step of 2^-16 above it, at most 1, and unchanged by another
+// trip through the memo. Before the fix a sigma of 1 (or NaN) reached the first row as 1 but the
+// memo capped it to 65535/65536 for the second.
+TEST(VisibilitySigmaCode, BothRowsOfAPairGetTheSameRoundedUpValue) {
+  const double step = 1.0 / 65536.0;
+  const double sigmas[] = {0.0,
+                           1e-12,
+                           step,
+                           0.1,
+                           0.5,
+                           1.0 - 2 * step,
+                           1.0 - 1.5 * step,
+                           1.0 - step,
+                           1.0 - 0.5 * step,
+                           1.0,
+                           1.5,
+                           std::numeric_limits<double>::quiet_NaN()};
+  for (double sigma : sigmas) {
+    const double first = Visibility::sigma_of_code(Visibility::sigma_code(sigma));
+    const double second = Visibility::sigma_of_code(Visibility::sigma_code(first));
+    EXPECT_EQ(first, second) << sigma;
+    EXPECT_LE(first, 1.0) << sigma;
+    if (std::isnan(sigma) || sigma >= 1.0) {
+      EXPECT_EQ(first, 1.0) << sigma;  // the bound: V in [0,1]; NaN knows nothing
+    } else {
+      EXPECT_GE(first, sigma);
+      EXPECT_LT(first - sigma, 2 * step) << sigma;  // one step, or two into the code for 1
+    }
+  }
+}
+
+// With the pair memo on, the row that reuses a pair gets the first row's sigma bit for bit, and
+// both are what a Visibility without the memo (a block of rows) gives.
+TEST(VisibilitySigmaCode, MemoisedPairsGiveBothRowsTheUnmemoisedSigma) {
+  Scene scene = make_builtin_scene("cornell");
+  validate_scene(scene);
+  const Mesh mesh = build_mesh(scene, {3, 0.0});
+  const double eps = plane_epsilon(mesh);
+  const Visibility memo(scene, mesh, 16, 1, true), plain(scene, mesh, 16, 1, true);
+  memo.remember_pairs(true);
+  RowCost cost;
+  size_t traced = 0;
+  for (size_t i = 0; i < mesh.size(); i += 5)
+    for (size_t j = 0; j < mesh.size(); j += 3) {
+      if (i == j || !pair_faces(mesh, i, j, eps)) continue;
+      double first = -1, second = -1, alone = -1;
+      memo.fraction(i, j, cost, &first);
+      memo.fraction(j, i, cost, &second);
+      plain.fraction(j, i, cost, &alone);
+      ASSERT_EQ(first, second) << i << " " << j;
+      ASSERT_EQ(first, alone) << i << " " << j;
+      traced += first > 0.0 ? 1 : 0;
+    }
+  EXPECT_GT(traced, 0u);  // the box blocks some pairs: sigmas other than 0 were compared
 }
 
 // A build of every row keeps V_ij for V_ji (Visibility::remember_pairs): the same matrix, bit for
