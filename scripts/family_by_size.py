@@ -55,7 +55,7 @@ def configurations(n, seeds):
         ("sorted-shooting cached", dense + ["--solver", "sorted-shooting", "--rows", str(4 * n)],
          None),
         ("sorted-shooting on the fly", ["--ff-mode", "on-the-fly", "--solver", "sorted-shooting",
-                                        "--rows", str(2 * n), "--seconds", "900"], None),
+                                        "--rows", str(2 * n), "--seconds", "600"], None),
     ]
     for clustering in ["none", "isotropic"]:
         runs.append((f"hierarchical {clustering}",
