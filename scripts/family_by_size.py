@@ -2,7 +2,7 @@
 """Which family wins, by scene size (issue 32): every family against one certified reference.
 
 Usage: family_by_size.py OUT [--radlab PATH] [--scenes cornell,classroom,office3,hospital]
-                             [--seeds K] [--threads N] [--plot-only]
+                             [--seeds K] [--threads N] [--plot-only | --floor]
 
 On each scene it runs, with `radlab solve ... --trace`, against the certified reference of the
 method's own raycast F (`--ff-set symmetrise=false` for the runs that read the dense matrix, so
@@ -25,6 +25,9 @@ The first run on a scene builds (or loads) the matrix and the certified referenc
 ($RADLAB_CACHE_DIR or ~/.cache/radlab) and stores the reference's residual pass, so the
 matrix-free runs after it read the reference without computing a row (`reference checked`).
 Nothing is downloaded; the scene files come from ../shared/scenes beside the checkout.
+
+--floor instead measures what the Monte Carlo solvers cannot get below against this reference:
+their expectation is the exact-F system's solution (floor() below).
 """
 import argparse
 import csv
@@ -246,6 +249,43 @@ def plot(args, rows):
     print(f"family_by_size: wrote {path}")
 
 
+def floor(args):
+    """The Monte Carlo estimates' own floor against the certified reference: their expectation is
+    the solution of the exact-F system, the reference the raycast-F one's. On the Cornell box at
+    subdiv 4 (320 elements; `exact` with visibility=clip, every pair to 1e-10) both are solved to
+    a certified bound and compared as rms_rel_reflected (E read off one sorted-shooting step: it
+    shoots the lamp, which receives nothing from itself)."""
+    import numpy as np
+    folder = os.path.join(args.out, "floor")
+    os.makedirs(folder, exist_ok=True)
+    scene = ["builtin:cornell", "--subdiv", "4"]
+    files = {k: os.path.join(folder, k + ".csv") for k in ("exact", "raycast", "emission")}
+    commands = [
+        ["reference"] + scene + ["--ff", "exact", "--ff-set", "visibility=clip", "--out",
+                                 files["exact"]],
+        ["reference"] + scene + ["--ff-set", "symmetrise=false", "--out", files["raycast"]],
+        ["solve"] + scene + ["--solver", "sorted-shooting", "--steps", "1", "--reference", "none",
+                             "--out", files["emission"]],
+    ]
+    for command in commands:
+        done = subprocess.run([args.radlab, "-q"] + command, capture_output=True, text=True)
+        if done.returncode != 0:
+            sys.exit(f"family_by_size: radlab {' '.join(command)} failed:\n{done.stderr}")
+    exact, raycast, first = (np.loadtxt(files[k], delimiter=",", skiprows=1, ndmin=2)
+                             for k in ("exact", "raycast", "emission"))
+    area = raycast[:, 1]
+    lamp = first[:, 2] >= 0.5 * first[:, 2].max()
+    emission = np.where(lamp[:, None], first[:, 2:], 0.0)
+    per_channel = []
+    for c in range(raycast.shape[1] - 2):
+        reflected = raycast[:, 2 + c] - emission[:, c]
+        difference = exact[:, 2 + c] - raycast[:, 2 + c]
+        per_channel.append(math.sqrt((area * difference**2).sum() / (area * reflected**2).sum()))
+    print("floor: rms_rel_reflected of the exact-F solution against the raycast-F reference, "
+          f"Cornell subdiv 4: {np.mean(per_channel):.4g} (channels "
+          + ", ".join(f"{v:.4g}" for v in per_channel) + ")")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out")
@@ -254,6 +294,8 @@ def main():
     parser.add_argument("--seeds", type=int, default=4)
     parser.add_argument("--threads", type=int, default=0)
     parser.add_argument("--plot-only", action="store_true")
+    parser.add_argument("--floor", action="store_true",
+                        help="only measure the Monte Carlo floor (exact-F against raycast-F)")
     args = parser.parse_args()
     args.scenes = args.scenes.split(",")
     for s in args.scenes:
@@ -261,6 +303,8 @@ def main():
             sys.exit(f"family_by_size: unknown scene '{s}' (known: {', '.join(SCENES)})")
     if args.seeds < 1:
         sys.exit("family_by_size: --seeds must be >= 1")
+    if args.floor:
+        return floor(args)
     if not args.plot_only:
         if not os.access(args.radlab, os.X_OK):
             sys.exit(f"family_by_size: {args.radlab}: not an executable (build radlab first)")
