@@ -341,23 +341,9 @@ void checks_stage(Preparation& p) {
   }
   const StreamedCheck& streamed = *p.streamed;
   const size_t n = p.n();
-  RowSumCheck& sums = problem.row_sums;
-  // The dense check's limits (formfactor/matrix/diagnostics.h, check_row_sums): the method's
-  // common error, plus its allowance for the row where it states one (visibility and quadrature
-  // near a touching pair), asked only of the rows above the common limit.
-  const FormFactorMethod& method = *problem.method;
-  sums.per_row = method.states_row_allowances();
-  sums.stated_error =
-      sums.per_row ? method.row_sum_error_common() : stated_row_sum_error(*problem.method);
-  sums.row_sum_min = n ? *std::min_element(streamed.row_sum.begin(), streamed.row_sum.end()) : 0.0;
-  sums.row_sum_max = n ? *std::max_element(streamed.row_sum.begin(), streamed.row_sum.end()) : 0.0;
-  for (size_t i = 0; i < n; ++i) {
-    const double v = streamed.row_sum[i];
-    if (v > 1.0 + sums.stated_error)
-      sums.rows_above +=
-          v > 1.0 + sums.stated_error + (sums.per_row ? method.row_sum_allowance(i) : 0.0);
-  }
-  problem.used_row_sums = sums;
+  // The dense check's limits (formfactor/matrix/diagnostics.h), from the pass's row sums.
+  problem.row_sums = check_row_sums(streamed.row_sum, *problem.method);
+  problem.used_row_sums = problem.row_sums;
   const System& system = *p.streamed_system;
   double sent = 0.0, gathered = 0.0;
   for (size_t i = 0; i < n; ++i) {

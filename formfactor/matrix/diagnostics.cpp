@@ -4,9 +4,11 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <functional>
 #include <glm/common.hpp>
 #include <glm/geometric.hpp>
 #include <map>
+#include <utility>
 
 #include "core/param_bag.h"
 #include "core/text.h"
@@ -141,7 +143,43 @@ std::string classify(const FormFactorMatrix& m, const Mesh& mesh, double diagona
                  : "no stacked or coplanar partner in the row";
 }
 
+// The verdict on row sums: range, and the rows above 1 + stated_error + (the row's allowance,
+// asked only of rows above the common limit: it may cost a row), into `above` (and `allowance`,
+// sized n when row_allowance is given).
+RowSumCheck row_sum_verdict(std::span<const double> sums, double stated_error,
+                            const std::function<double(size_t)>& row_allowance,
+                            std::vector<size_t>& above, std::vector<double>& allowance) {
+  RowSumCheck check;
+  check.stated_error = stated_error;
+  check.per_row = bool(row_allowance);
+  const size_t n = sums.size();
+  check.row_sum_min = n ? *std::min_element(sums.begin(), sums.end()) : 0.0;
+  check.row_sum_max = n ? *std::max_element(sums.begin(), sums.end()) : 0.0;
+  for (size_t i = 0; i < n; ++i)
+    if (sums[i] > 1.0 + stated_error) {
+      if (row_allowance) allowance[i] = row_allowance(i);
+      if (sums[i] > 1.0 + stated_error + (row_allowance ? allowance[i] : 0.0)) above.push_back(i);
+    }
+  check.rows_above = above.size();
+  return check;
+}
+
+// A method's row-sum limits: its common stated error and, where it states them, each row's own
+// allowance (empty function otherwise).
+std::pair<double, std::function<double(size_t)>> row_sum_limits(const FormFactorMethod& method) {
+  if (!method.states_row_allowances()) return {method.stated_row_sum_error(), {}};
+  return {method.row_sum_error_common(),
+          [&method](size_t i) { return method.row_sum_allowance(i); }};
+}
+
 }  // namespace
+
+RowSumCheck check_row_sums(std::span<const double> sums, const FormFactorMethod& method) {
+  const auto [stated_error, row_allowance] = row_sum_limits(method);
+  std::vector<size_t> above;
+  std::vector<double> allowance(row_allowance ? sums.size() : 0, 0.0);
+  return row_sum_verdict(sums, stated_error, row_allowance, above, allowance);
+}
 
 RowSumCheck check_row_sums(const FormFactorMatrix& m, const Scene& scene, const Mesh& mesh,
                            double stated_error,
@@ -149,9 +187,6 @@ RowSumCheck check_row_sums(const FormFactorMatrix& m, const Scene& scene, const 
                            size_t worst_rows, size_t entries_per_row,
                            const std::function<double(size_t)>& row_allowance) {
   (void)scene;
-  RowSumCheck check;
-  check.stated_error = stated_error;
-  check.per_row = bool(row_allowance);
   const size_t n = m.size();
   std::vector<double> sums(n, 0.0);
   for (size_t i = 0; i < n; ++i)
@@ -160,16 +195,9 @@ RowSumCheck check_row_sums(const FormFactorMatrix& m, const Scene& scene, const 
       for (size_t j = 0; j < n; ++j) s += double(row[j]);
       return s;
     });
-  check.row_sum_min = n ? *std::min_element(sums.begin(), sums.end()) : 0.0;
-  check.row_sum_max = n ? *std::max_element(sums.begin(), sums.end()) : 0.0;
   std::vector<size_t> above;
   std::vector<double> allowance(row_allowance ? n : 0, 0.0);
-  for (size_t i = 0; i < n; ++i)
-    if (sums[i] > 1.0 + stated_error) {
-      if (row_allowance) allowance[i] = row_allowance(i);  // only here: it may cost a row
-      if (sums[i] > 1.0 + stated_error + (row_allowance ? allowance[i] : 0.0)) above.push_back(i);
-    }
-  check.rows_above = above.size();
+  RowSumCheck check = row_sum_verdict(sums, stated_error, row_allowance, above, allowance);
   if (above.empty()) return check;
   std::sort(above.begin(), above.end(), [&](size_t a, size_t b) { return sums[a] > sums[b]; });
   Vec3 lo(1e300), hi(-1e300);
@@ -207,10 +235,8 @@ RowSumCheck check_row_sums(const FormFactorMatrix& m, const Scene& scene, const 
 RowSumCheck check_row_sums(const FormFactorMatrix& matrix, const Scene& scene, const Mesh& mesh,
                            const FormFactorMethod& method) {
   const auto unoccluded = [&method](size_t i, size_t j) { return method.unoccluded_pair(i, j); };
-  if (!method.states_row_allowances())
-    return check_row_sums(matrix, scene, mesh, method.stated_row_sum_error(), unoccluded);
-  return check_row_sums(matrix, scene, mesh, method.row_sum_error_common(), unoccluded, 5, 4,
-                        [&method](size_t i) { return method.row_sum_allowance(i); });
+  const auto [stated_error, row_allowance] = row_sum_limits(method);
+  return check_row_sums(matrix, scene, mesh, stated_error, unoccluded, 5, 4, row_allowance);
 }
 
 std::string RowSumCheck::headline() const {

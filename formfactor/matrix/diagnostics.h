@@ -77,6 +77,10 @@ RowSumCheck check_row_sums(const FormFactorMatrix& matrix, const Scene& scene, c
 RowSumCheck check_row_sums(const FormFactorMatrix& matrix, const Scene& scene, const Mesh& mesh,
                            const FormFactorMethod& method);
 
+// The same verdict from row sums alone, with the method's limits as above (when no matrix is held:
+// rows on the fly, checked from their one streamed pass): counts and range, no rows classified.
+RowSumCheck check_row_sums(std::span<const double> sums, const FormFactorMethod& method);
+
 // The power emitters send by their rows against what the matrix lets every element gather from
 // them (sum_j E_j A_j sum_i F_ji against sum_j E_j sum_i A_i F_ij, equal under reciprocity). A
 // reference solved by gathering sees only the second: a matrix whose rows miss a small lamp
