@@ -461,5 +461,34 @@ TEST(Workflow, BlocksMergeIntoTheOneProcessMatrix) {
   EXPECT_EQ(jobs(again, "prepare"), 1) << redo.output;
 }
 
+// config radlab_options: global radlab options (--limits for a scene above the defaults) reach
+// the plan, read when the workflow is parsed, and every job's command.
+TEST(Workflow, RadlabOptionsReachThePlanAndEveryJob) {
+  if (!have_snakemake())
+    GTEST_SKIP() << "snakemake is not installed (scripts/install-deps.sh installs Debian's "
+                    "snakemake): the workflow is not tested";
+  TempDir dir;
+  const std::string experiment = std::string(RADLAB_SOURCE_DIR) + "/workflow/test/blocks.toml";
+  const std::string cache = dir.file("cache"), out = dir.file("out");
+  const Result plan = shell(snakemake(dir.file("w"), experiment, 2, out, cache,
+                                      "blocks=3 'radlab_options=--limits memory_gb=3' "
+                                      "--dry-run --printshellcmds"));
+  ASSERT_EQ(plan.code, 0) << plan.output;
+  for (const char* command : {"--block 1/3", "--block 3/3", "--merge-blocks 3", "--shard 1/2"}) {
+    const size_t at = plan.output.find(command);
+    ASSERT_NE(at, std::string::npos) << command << "\n" << plan.output;
+    const size_t line = plan.output.rfind('\n', at);
+    EXPECT_NE(plan.output.substr(line, at - line).find("--limits memory_gb=3"), std::string::npos)
+        << command << " runs without the options:\n"
+        << plan.output;
+  }
+  // The plan honours them: this experiment plans 2 runs, above a limit of 1 run.
+  const Result refused = shell(snakemake(dir.file("w"), experiment, 2, out, cache,
+                                         "'radlab_options=--limits runs=1' --dry-run"));
+  EXPECT_NE(refused.code, 0) << refused.output;
+  EXPECT_NE(refused.output.find("runs"), std::string::npos) << refused.output;
+  EXPECT_FALSE(fs::exists(out)) << "a refused plan wrote results";
+}
+
 }  // namespace
 }  // namespace radlab
