@@ -137,8 +137,9 @@ void run(const SolveOptions& o, int argc, char** argv) {
   const RunOutcome run = execute_run(request);
   const RunResult& result = run.result;
   std::printf("run          %s\n", request.labels.run_id.c_str());
-  std::printf("stopped      %s after %lld steps, %llu form-factor rows, %.4f s\n",
-              result.stop_reason.c_str(), result.steps, result.rows, result.seconds);
+  std::printf("stopped      %s after %lld steps, %llu form-factor rows, %.4f s (%.4f s CPU)\n",
+              result.stop_reason.c_str(), result.steps, result.rows, result.seconds,
+              result.cpu_seconds);
   if (run.problem->reference) print_reference(run);
   for (const auto& [key, value] : run.solver->statistics())
     std::printf("statistic    %-28s %.10g\n", key.c_str(), value);

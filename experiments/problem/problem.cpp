@@ -411,9 +411,9 @@ void reference_stage(Preparation& p) {
     }
     // The method's own rows (not symmetrised) are the rows a run on the fly computes: store their
     // residual pass now, from the matrix in memory, so that such a run certifies the reference
-    // without computing every row again.
-    if (references && !p.symmetrise &&
-        !std::filesystem::exists(references->check_path(reference_key)))
+    // without computing every row again. A stored pass that is missing, damaged or of another B
+    // (load_check refuses it) is replaced: here it costs one product, there every row.
+    if (references && !p.symmetrise && !references->load_check(reference_key, problem.reference->B))
       references->store_check(reference_key, problem.reference->B,
                               matrix_check(cached, certified, problem.reference->B));
     progress.finish();

@@ -201,6 +201,7 @@ void write_run_result(JsonWriter& json, const Budget& budget, const RunResult& r
   json.field("seconds", r.seconds);
   json.field("setup_seconds", r.setup_seconds);
   json.field("seconds_with_setup", r.seconds_with_setup);
+  json.field("cpu_seconds", r.cpu_seconds);
   json.field("reference_kind", r.reference_kind);
   json.field("rms_rel_reflected", r.final_reflected.rms_rel);
   json.field("rms_rel", r.final_errors.rms_rel);

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "core/cpu_time.h"
 #include "core/error.h"
 #include "core/log.h"
 #include "core/progress.h"
@@ -112,7 +113,8 @@ class Evaluator {
 
   // Writes the checkpoint rows; returns the certified relative bound (NaN if unavailable).
   double evaluate(const Solver& solver, long long step, unsigned long long rows, double seconds,
-                  unsigned long long rays, unsigned long long pair_evals, RunResult& result) {
+                  double cpu_seconds, unsigned long long rays, unsigned long long pair_evals,
+                  RunResult& result) {
     const System& system = *problem_.system;
     const double with_setup = seconds + setup_seconds(problem_, rows);
     const Radiosity& B =
@@ -155,6 +157,7 @@ class Evaluator {
                           .pair_evals = pair_evals,
                           .seconds = seconds,
                           .seconds_with_setup = with_setup,
+                          .cpu_seconds = cpu_seconds,
                           .B = B,
                           .unshot = unshot,
                           .measured = problem_.reference.has_value(),
@@ -277,7 +280,7 @@ std::string check_stagnation(const Problem& problem, const RunResult& result, do
 
 // The mean-of-channels metrics of the checkpoint just evaluated, for the summary and the fits.
 CheckpointRecord checkpoint_record(const Problem& problem, const RunResult& result, long long step,
-                                   double seconds, double bound) {
+                                   double seconds, double cpu_seconds, double bound) {
   const System& system = *problem.system;
   CheckpointRecord record;
   record.step = step;
@@ -285,6 +288,7 @@ CheckpointRecord checkpoint_record(const Problem& problem, const RunResult& resu
   record.pair_evals = system.pair_evaluations();
   record.seconds = seconds;
   record.seconds_with_setup = seconds + setup_seconds(problem, record.rows);
+  record.cpu_seconds = cpu_seconds;
   const double nan = std::nan("");
   const bool measured = problem.reference.has_value();
   record.rms_rel = measured ? result.final_errors.rms_rel : nan;
@@ -340,7 +344,7 @@ std::string tolerance_text(const Budget& budget, const Budget& asked) {
 // The run's totals and, with a tolerance, its verdict.
 void finish_result(RunResult& result, const Problem& problem, const Solver& solver,
                    const RunLabels& labels, const Budget& budget, const Budget& asked, double bound,
-                   double scale, double seconds, long long step) {
+                   double scale, double seconds, double cpu_seconds, long long step) {
   const System& system = *problem.system;
   result.steps = step;
   result.rows = system.rows_used();
@@ -350,6 +354,7 @@ void finish_result(RunResult& result, const Problem& problem, const Solver& solv
   result.seconds = seconds;
   result.setup_seconds = setup_seconds(problem, result.rows);
   result.seconds_with_setup = seconds + result.setup_seconds;
+  result.cpu_seconds = cpu_seconds;
   result.final_bound_relative = bound;
   result.final_bound_relative_reflected = bound * scale;
   result.tolerance_of_reflected = budget.tol_of_reflected;
@@ -387,8 +392,10 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
   using Clock = std::chrono::steady_clock;
   system.reset_counters();
   auto t0 = Clock::now();
+  const double cpu0 = process_cpu_seconds();
   call_solver(labels, "init()", [&] { solver.init(system); });
   double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  double cpu_seconds = process_cpu_seconds() - cpu0;
 
   const double total = budget.steps  ? double(*budget.steps)
                        : budget.rows ? double(*budget.rows)
@@ -397,9 +404,9 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
   long long step = 0;
   long long next_checkpoint = schedule.next_after(0);
   auto checkpoint = [&]() {
-    const double bound = evaluator.evaluate(solver, step, system.rows_used(), seconds,
+    const double bound = evaluator.evaluate(solver, step, system.rows_used(), seconds, cpu_seconds,
                                             system.rays_used(), system.pair_evaluations(), result);
-    result.history.push_back(checkpoint_record(problem, result, step, seconds, bound));
+    result.history.push_back(checkpoint_record(problem, result, step, seconds, cpu_seconds, bound));
     if (hook) hook(step, solver);
     return bound;
   };
@@ -420,8 +427,10 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
       break;
     }
     auto start = Clock::now();
+    const double cpu_start = process_cpu_seconds();
     const StepInfo info = call_solver(labels, "step()", [&] { return solver.step(); });
     seconds += std::chrono::duration<double>(Clock::now() - start).count();
+    cpu_seconds += process_cpu_seconds() - cpu_start;
     ++step;
     progress.update(budget.steps ? double(step) : double(system.rows_used()));
 
@@ -445,7 +454,8 @@ RunResult run_solver(Solver& solver, const Problem& problem, const Budget& budge
     }
   }
   progress.finish(result.stop_reason);
-  finish_result(result, problem, solver, labels, budget, budget_in, bound, scale, seconds, step);
+  finish_result(result, problem, solver, labels, budget, budget_in, bound, scale, seconds,
+                cpu_seconds, step);
   if (trace) trace->flush();
   return result;
 }

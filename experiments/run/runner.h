@@ -68,6 +68,7 @@ struct CheckpointRecord {
   unsigned long long pair_evals = 0;
   double seconds = 0.0;
   double seconds_with_setup = 0.0;  // seconds + the set-up the run has depended on so far
+  double cpu_seconds = 0.0;         // the process's CPU time over the span of `seconds`
   double rms_rel = 0.0, p_mean = 0.0, rms_rel_display = 0.0, p_mean_display = 0.0;
   double rms_rel_reflected = 0.0;
   double bound_relative = 0.0;
@@ -81,6 +82,8 @@ struct RunResult {
   // The set-up the run depended on (setup_seconds(): the matrix's or the patch rows' build time
   // once the run has read a row of them, else 0) and seconds plus it.
   double setup_seconds = 0.0, seconds_with_setup = 0.0;
+  // The process's CPU time over the span of `seconds` (core/cpu_time.h): every thread's.
+  double cpu_seconds = 0.0;
   std::string stop_reason;
   std::string reference_kind = "none";  // Reference::kind, or "none" without a reference
   ErrorMetrics final_errors;            // on the mean of the channels, solution()

@@ -182,6 +182,8 @@ ColumnTable<SummaryRecord> make_summary_table() {
       [](CsvWriter& c, const Record& r) { c.add(r.in.configuration); });
   add("solver_seed", "the solver's `seed` parameter as the experiment gave it (`solver_seeds`, `repeats` or `[parameters.SOLVER] seed`), empty when not given",
       [](CsvWriter& c, const Record& r) { c.add(r.in.solver_seed); });
+  add("cpu_seconds", "the process's CPU time over the solver seconds (trace.csv's `cpu_seconds`: every thread counted; compares runs made at different loads)",
+      number([](const Record&, const RunResult& x) { return x.cpu_seconds; }), true);
   // clang-format on
   return t;
 }

@@ -31,6 +31,7 @@ struct TraceCheckpoint {
   unsigned long long ff_rows = 0, rays = 0, pair_evals = 0;
   double seconds = 0.0;
   double seconds_with_setup = 0.0;  // seconds + setup_seconds() (runner.h)
+  double cpu_seconds = 0.0;         // the process's CPU time over the same span as `seconds`
   const Radiosity& B;               // solution()
   const Radiosity* unshot;          // unshot(), for shooting solvers
   bool measured = false;            // a reference exists: the error columns apply
@@ -46,7 +47,8 @@ struct TraceCheckpoint {
 const ColumnTable<TraceCheckpoint>& trace_table();
 // Their names: the trace's header.
 std::vector<std::string> trace_columns();
-// Those whose values measure the machine (`seconds`, `seconds_with_setup`): left out when re-runs
+// Those whose values measure the machine (`seconds`, `seconds_with_setup`, `cpu_seconds`): left out
+// when re-runs
 // are compared.
 std::vector<std::string> trace_time_columns();
 

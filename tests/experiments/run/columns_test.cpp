@@ -79,7 +79,8 @@ TEST(Columns, PublishedColumnsKeepTheirNamesAndOrder) {
                                                     "reference_kind",
                                                     "solver_elements",
                                                     "solver_statistics",
-                                                    "seconds_with_setup"};
+                                                    "seconds_with_setup",
+                                                    "cpu_seconds"};
   const std::vector<std::string> trace = trace_columns();
   ASSERT_GE(trace.size(), trace_published.size());
   EXPECT_EQ(std::vector<std::string>(trace.begin(), trace.begin() + long(trace_published.size())),
@@ -98,6 +99,7 @@ TEST(Columns, PublishedColumnsKeepTheirNamesAndOrder) {
   EXPECT_EQ(summary[58], "seconds_with_setup");
   EXPECT_EQ(summary[59], "configuration");
   EXPECT_EQ(summary[60], "solver_seed");
+  EXPECT_EQ(summary[61], "cpu_seconds");
 }
 
 // A new metric is one entry: the area-weighted L1 error relative to the reference's area-weighted

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "core/cpu_time.h"
 #include "core/param_bag.h"
 #include "experiments/problem/problem.h"
 #include "experiments/run/run_request.h"
@@ -127,6 +128,25 @@ TEST(MatrixFreePreparation, StoredResidualPassCertifiesLikeTheRowsOnTheFly) {
   EXPECT_EQ(damaged->reference->residual_inf, streamed->reference->residual_inf);
 }
 
+// A run holding the matrix that finds the stored pass damaged replaces it (one product there,
+// where the next run on the fly would compute every row again to certify the reference).
+TEST(MatrixFreePreparation, ADenseRunReplacesADamagedStoredPass) {
+  testing::TempDir cache;
+  ProblemSpec as_computed = cube_spec(cache);  // the system rows on the fly read
+  as_computed.ff_set = {"symmetrise=false"};
+  auto first = prepare_run_problem(as_computed, ReferenceChoice{}, Budget{}, true);
+  ASSERT_EQ(check_files(cache).size(), 1u);
+  {
+    std::fstream f(check_files(cache).front(), std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(-9, std::ios::end);
+    f.put('\x5a');
+  }
+  auto dense = prepare_run_problem(as_computed, ReferenceChoice{}, Budget{}, true);
+  ASSERT_TRUE(dense->has_matrix());
+  auto next = prepare_run_problem(cube_spec(cache), ReferenceChoice{}, Budget{}, false);
+  EXPECT_EQ(next->preparation, std::vector<std::string>{"reference checked"});
+}
+
 // The physical checks of a reference certified without the matrix are the dense build's: raycast
 // rows of the Cornell box at subdiv 3 sum to 1.0015, above the common stated error (1e-4) but
 // within their own rows' sampling allowance, which the dense check grants; the check from the
@@ -184,6 +204,24 @@ TEST(SecondsWithSetup, ChargesTheMatrixBuildOnlyToRunsThatReadIt) {
   const RunResult on_the_fly = run("jacobi", {}, *streaming, 40);
   EXPECT_GT(on_the_fly.rows, 0u);
   EXPECT_EQ(on_the_fly.setup_seconds, 0.0);
+}
+
+// cpu_seconds is the process's CPU time over the span `seconds` measures: it grows with the steps
+// (a clock summed over spans, not a reading of the process clock), is the last checkpoint's at
+// the end, and is at most the CPU the whole run call used, which also evaluates the metrics.
+TEST(CpuSeconds, CountsTheSolversSpansOnly) {
+  testing::TempDir cache;
+  auto p = prepare_run_problem(cube_spec(cache), ReferenceChoice{}, Budget{}, true);
+  const double before = process_cpu_seconds();
+  const RunResult r = run("stochastic-jacobi", {"seed=3"}, *p, 20);
+  const double whole = process_cpu_seconds() - before;
+  ASSERT_GE(r.history.size(), 2u);
+  EXPECT_GE(r.history.front().cpu_seconds, 0.0);
+  for (size_t k = 1; k < r.history.size(); ++k)
+    EXPECT_GE(r.history[k].cpu_seconds, r.history[k - 1].cpu_seconds) << k;
+  EXPECT_EQ(r.cpu_seconds, r.history.back().cpu_seconds);
+  EXPECT_GT(r.cpu_seconds, 0.0);  // 20 steps of rays: nanosecond clock, never a zero span
+  EXPECT_LE(r.cpu_seconds, whole);
 }
 
 }  // namespace
