@@ -170,6 +170,39 @@ TEST(PreparationEstimate, BlocksCutByWorkAreTimedByTheirShare) {
   EXPECT_EQ(large.matrix_bytes, 4e8);
 }
 
+// A matrix the cache holds is held to memory_gb by its stored size (what loading it holds), not by
+// the dense estimate of building it: at a limit between the two, the first preparation (a build)
+// is refused naming the dense matrix, and once the matrix is cached (built under a higher limit)
+// the same preparation passes; without the cache it is refused again.
+TEST(PreparationEstimate, ACachedMatrixIsHeldToTheLimitByItsStoredSize) {
+  TempDir dir;
+  ProblemSpec spec;
+  spec.scene = "builtin:cornell";
+  spec.mesh.subdivisions = 4;
+  spec.cache_dir = dir.path().string();
+  const PreparationEstimate dense = estimate_preparation(spec, 320, preparation_threads());
+  const PreparationEstimate cached =
+      estimate_cached_preparation(spec, 320, 8.0 * 320 * 320, preparation_threads());
+  ASSERT_LT(cached.total_bytes(), dense.total_bytes());
+  const double between = 0.5 * (cached.total_bytes() + dense.total_bytes()) / 1e9;
+  const double saved = limits().memory_gb;
+  try {
+    limits().memory_gb = between;
+    testing::expect_error<InputError>([&] { prepare_problem(spec); },
+                                      {"the dense form-factor matrix of 320 elements"});
+    limits().memory_gb = saved;
+    prepare_problem(spec);  // builds and caches the matrix
+    limits().memory_gb = between;
+    EXPECT_NO_THROW(prepare_problem(spec));  // loads it: its stored size is under the limit
+    spec.use_cache = false;
+    testing::expect_error<InputError>([&] { prepare_problem(spec); }, {"--limits memory_gb="});
+  } catch (...) {
+    limits().memory_gb = saved;
+    throw;
+  }
+  limits().memory_gb = saved;
+}
+
 // The plan bounds what a block of pairs measures: its peak resident size (GNU time), for every
 // block of 3 of the Cornell box at subdiv 4 with raycast.
 TEST(PreparationEstimate, ThePlanBoundsThePeakOfEveryBlock) {
