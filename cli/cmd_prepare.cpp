@@ -10,12 +10,12 @@
 // K` per problem, then the shards.
 //
 // Blocked builds (formfactor/matrix/matrix_blocks.h; issue 33): `--problem K --block I/B` computes
-// block I of B of problem K's form-factor matrix (its pairs split in B equal shares for raycast
-// and exact, each pair once; its rows for the hemicube) into the cache as a block file,
-// independent of the other blocks (a Slurm node each); `--merge-blocks B` checks all B
-// (present, this matrix's, this split's, intact) and merges them into the cached matrix, the
-// one-process build's bits, then prepares as usual (the reference). `--plan --blocks B` adds each
-// block's and the merge's estimates. The workflow runs them with config blocks=B.
+// block I of B of problem K's form-factor matrix (its pairs split in B shares of equal estimated
+// work for raycast, of equal pair counts for exact, each pair once; its rows for the hemicube) into
+// the cache as a block file, independent of the other blocks (a Slurm node each); `--merge-blocks
+// B` checks all B (present, this matrix's, this split's, intact) and merges them into the cached
+// matrix, the one-process build's bits, then prepares as usual (the reference). `--plan --blocks B`
+// adds each block's and the merge's estimates. The workflow runs them with config blocks=B.
 //
 // --plan builds no matrix: it loads each scene and meshes it, and prints as JSON the problems
 // and runs with rough estimates of memory and time (below) that the workflow turns into
@@ -66,7 +66,9 @@ namespace {
 // One block of a blocked build, or the merge (index 0), estimated.
 struct BlockEstimate {
   size_t index = 0, first_row = 0, end_row = 0;
-  size_t pairs = 0;  // unordered pairs (blocks of pairs) or entries (blocks of rows)
+  size_t pairs = 0;         // unordered pairs (blocks of pairs) or entries (blocks of rows)
+  uint64_t work = 0;        // its share of the estimated work (blocks of pairs cut by it)
+  double facing_pairs = 0;  // its estimated facing pairs (the pairs that can hold entries)
   double memory_bytes = 0, seconds = 0;
 };
 
@@ -82,6 +84,8 @@ struct ProblemEstimate {
   std::string split;
   BlockEstimate merge;
   std::string blocks_note;
+  std::string work_unit;  // the estimated work's unit, when the split is cut by it
+  uint64_t work_total = 0;
 };
 
 // The blocks of a problem's matrix and their merge (experiments/problem/preparation_estimate.h).
@@ -99,15 +103,23 @@ void estimate_blocks(const PlannedProblem& planned, const FormFactorMethod& meth
   e.split = split == BlockSplit::kPairs ? "pairs" : "rows";
   const size_t count =
       std::min(requested, split == BlockSplit::kPairs ? e.elements / 2 : e.elements);
-  for (size_t k = 1; k <= count; ++k) {
-    const MatrixBlock block = matrix_block(e.elements, k, count, split);
+  // The split every block and the merge compute: blocks of pairs cut by the method's work.
+  std::optional<PairWorkSplit> work;
+  if (split == BlockSplit::kPairs) {
+    work = pair_work_split(method, e.elements);
+    e.work_unit = work->unit;
+    e.work_total = work->total();
+  }
+  const PairWorkSplit* cut = work ? &*work : nullptr;
+  for (const MatrixBlock& block : matrix_blocks(e.elements, count, split, cut)) {
     const PreparationEstimate b =
-        estimate_matrix_block(planned.spec, e.elements, block, preparation_threads());
-    e.blocks.push_back({k, block.first, block.end, block.pairs(), b.total_bytes(), b.seconds});
+        estimate_matrix_block(planned.spec, e.elements, block, preparation_threads(), cut);
+    e.blocks.push_back({block.index, block.first, block.end, block.pairs(), block.work,
+                        block.facing_pairs, b.total_bytes(), b.seconds});
   }
   const PreparationEstimate m =
-      estimate_block_merge(planned.spec, e.elements, preparation_threads());
-  e.merge = {0, 0, e.elements, 0, m.total_bytes(), m.seconds};
+      estimate_block_merge(planned.spec, e.elements, preparation_threads(), cut);
+  e.merge = {0, 0, e.elements, 0, 0, 0, m.total_bytes(), m.seconds};
 }
 
 ProblemEstimate estimate_problem(const PlannedProblem& planned, size_t blocks) {
@@ -198,6 +210,10 @@ void print_plan(const ExperimentSpec& spec, const SweepPlan& plan, size_t blocks
     json.field("scene_files", e.scene_files);
     if (blocks > 0) {
       if (!e.split.empty()) json.field("block_split", e.split);
+      if (!e.work_unit.empty()) {
+        json.field("block_work_unit", e.work_unit);
+        json.field("block_work_total", e.work_total);
+      }
       json.key("blocks").begin_array();
       for (const BlockEstimate& b : e.blocks) {
         json.begin_object();
@@ -205,6 +221,10 @@ void print_plan(const ExperimentSpec& spec, const SweepPlan& plan, size_t blocks
         json.field("first_row", b.first_row);
         json.field("end_row", b.end_row);
         json.field(e.split == "pairs" ? "pairs" : "entries", b.pairs);
+        if (!e.work_unit.empty()) {
+          json.field("work", b.work);
+          json.field("facing_pairs", std::round(b.facing_pairs));
+        }
         json.field("memory_mb", std::ceil(b.memory_bytes / 1e6));
         json.field("seconds", b.seconds);
         json.end_object();
@@ -299,9 +319,8 @@ void prepare_block(const ExperimentSpec& spec, const SweepPlan& plan, size_t ind
   log::info("problem " + std::to_string(index) + ": " + planned.label + ", block " +
             std::to_string(block) + "/" + std::to_string(count));
   const auto start = std::chrono::steady_clock::now();
-  const std::unique_ptr<Problem> problem = prepare_matrix_block(planned.spec, block, count);
-  const MatrixBlock rows = matrix_block(problem->mesh.size(), block, count,
-                                        block_split(*problem->method, planned.spec.ff_method));
+  MatrixBlock rows;
+  const std::unique_ptr<Problem> problem = prepare_matrix_block(planned.spec, block, count, &rows);
   std::printf("%s of problem %zu in %s\n", rows.label().c_str(), index,
               problem->build.cache_file.c_str());
   if (record.empty()) return;
@@ -318,6 +337,10 @@ void prepare_block(const ExperimentSpec& spec, const SweepPlan& plan, size_t ind
   json.field("end_row", rows.end);
   json.field("block_file", problem->build.cache_file);
   json.field("split", rows.split == BlockSplit::kPairs ? "pairs" : "rows");
+  if (rows.total_work > 0) {
+    json.field("work", rows.work);
+    json.field("work_total", rows.total_work);
+  }
   json.field("build", problem->build.summary());
   json.field("rays", problem->build.cost.rays);
   json.field("seconds",

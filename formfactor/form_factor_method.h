@@ -144,6 +144,21 @@ class FormFactorMethod {
   virtual bool builds_in_pair_blocks() const { return false; }
   virtual void pair_entries(size_t i, std::span<double> upper, std::span<double> lower,
                             RowCost& cost) const;
+  // Blocks of equal estimated work (matrix_blocks.h pair_split): the work of each row's pairs
+  // (i, j > i), estimated from a fixed sample of them, in the method's units. Empty row_weight:
+  // every pair the same work (blocks of equal pair counts). Every block, the merge and the plan
+  // compute it anew and must cut the same rows, so it must be deterministic and the same bits
+  // for any thread count; and cheap (seconds at 50,000 elements). row_facing[i] counts the
+  // sampled pairs of row i that can hold a non-zero entry (both elements in front of each
+  // other), for the memory estimate; `sample` is how many pairs one sampled pair stands for.
+  struct PairWork {
+    std::vector<uint64_t> row_weight;
+    std::vector<uint32_t> row_facing;
+    uint32_t sample = 1;
+    std::string unit;               // what a unit of weight is, for the plan
+    double seconds_per_unit = 0.0;  // CPU seconds a unit of weight takes (calibration)
+  };
+  virtual PairWork pair_work() const { return {}; }
   virtual size_t pair_block_state_bytes(size_t /*n*/) const { return 0; }
   virtual std::vector<char> pair_block_state() const { return {}; }
   virtual bool restore_pair_block_states(const std::vector<std::vector<char>>& /*states*/) const {

@@ -33,7 +33,8 @@
 // Raised whenever the plugin interface (this file, SolverInfo, Solver, System,
 // FormFactorMethodInfo, FormFactorMethod) changes incompatibly; checked with the radlab version
 // on loading. 2: form-factor methods (issue 37). 3: FormFactorMethod's blocks of pairs (issue 33).
-#define RADLAB_PLUGIN_ABI 3
+// 4: FormFactorMethod::pair_work, blocks of pairs of equal estimated work (issue 33).
+#define RADLAB_PLUGIN_ABI 4
 
 namespace radlab {
 

@@ -35,15 +35,35 @@ struct PreparationEstimate {
 // spec.need_reference). The method's parameters are spec.ff_set over the method's defaults.
 PreparationEstimate estimate_preparation(const ProblemSpec& spec, size_t elements, int threads);
 
-// Blocked builds (formfactor/matrix/matrix_blocks.h), by the same rates: one block (a block of
-// rows held in double, 8n bytes a row at most; a block of pairs, both entries of each pair held
-// twice in double while its rows are assembled, 16 bytes an entry at most, and computed at the
-// dense rate per entry; the method's working memory; the program), and the merge (everything
-// estimate_preparation holds, the blocks read at 100 MB/s instead of the matrix computed, then
-// the reference).
+// Blocked builds (formfactor/matrix/matrix_blocks.h). A block of rows: its rows in double (8n
+// bytes a row), computed at the dense rate. A block of pairs cut by the method's estimated work
+// (`work` with a unit, FormFactorMethod::pair_work): its seconds are its share of the work at
+// the method's calibrated rate (CPU seconds: the wall time on one thread, a bound on more), its
+// memory that of its facing pairs' entries (both entries each: the most that can be non-zero)
+// held in its two passes (kPairBlockBytesPerEntry, fitted to measured peaks). Without an estimate:
+// both entries of every pair at 16 bytes (the dense bound) and the dense rate. Each holds the
+// method's working memory and the program; a process start grows with the scene (loading,
+// meshing, the BVH, the work estimate itself).
 PreparationEstimate estimate_matrix_block(const ProblemSpec& spec, size_t elements,
-                                          const MatrixBlock& block, int threads);
-PreparationEstimate estimate_block_merge(const ProblemSpec& spec, size_t elements, int threads);
+                                          const MatrixBlock& block, int threads,
+                                          const PairWorkSplit* work = nullptr);
+// The merge and the preparation after it (the checks, the certified reference): with the
+// method's estimate, the peak of the merge (every entry gathered and assembled, each block read
+// in turn) or of the preparation that loads the merged matrix (estimate_cached_preparation),
+// for `stored_bytes` of blocks (their files' sizes, once they exist: the merge's own check) or,
+// in the plan, a share of the facing pairs' entries; the blocks read at 100 MB/s. Without an
+// estimate, everything estimate_preparation holds, the blocks read instead of the matrix
+// computed.
+PreparationEstimate estimate_block_merge(const ProblemSpec& spec, size_t elements, int threads,
+                                         const PairWorkSplit* work = nullptr,
+                                         double stored_bytes = 0.0);
+// A preparation whose matrix the cache holds, stored sparse in `stored_bytes` (its payload): the
+// matrix loaded in double (its stored size), its float rounding (half that, float storage), the
+// certified reference (dense LU, 8n^2, up to ReferenceOptions::dense_limit elements; above, the
+// GMRES vectors, and products of the stored entries); the program. What the memory_gb limit
+// checks when the matrix is cached, and what a merge's preparation is estimated by.
+PreparationEstimate estimate_cached_preparation(const ProblemSpec& spec, size_t elements,
+                                                double stored_bytes, int threads);
 
 // The threads radlab's parallel loops use (--threads, else every core).
 int preparation_threads();

@@ -198,12 +198,31 @@ void find_streamed_reference(Preparation& p) {
 // The n^2 matrix is estimated against the limits before it is allocated and computed: the memory
 // is everything the preparation holds at its peak (the matrix in double, its float rounding, the
 // reference's LU, the method's buffers, the program), not the solvers' matrix alone.
-void check_dense_limits(const Preparation& p) {
+// The stored size of the matrix the cache holds, or 0.
+double cached_matrix_bytes(const Preparation& p) {
+  if (!p.cache) return 0.0;
+  std::error_code ec;
+  const auto bytes = std::filesystem::file_size(p.cache->path(p.key), ec);
+  return ec ? 0.0 : double(bytes);
+}
+
+// With `stored` > 0 (the cache holds the matrix, that many bytes) it is estimated by its stored
+// size instead (a merged soda.mgf matrix is 3% of its dense size), its pairs not computed again.
+void check_dense_limits(const Preparation& p, double stored) {
   const double pairs = double(p.n()) * double(p.n());
-  const std::string what = p.problem.scene().name + ": the dense form-factor matrix of " +
-                           std::to_string(p.n()) + " elements";
   ProblemSpec spec = p.spec;
   spec.precision = p.precision;
+  if (stored > 0) {
+    const PreparationEstimate estimate =
+        estimate_cached_preparation(spec, p.n(), stored, preparation_threads());
+    check_limit("memory_gb", estimate.total_bytes(),
+                p.problem.scene().name + ": the cached form-factor matrix of " +
+                    std::to_string(p.n()) + " elements (" + p.cache->path(p.key).string() +
+                    ") and what its preparation holds beside it (" + estimate.describe() + ")");
+    return;
+  }
+  const std::string what = p.problem.scene().name + ": the dense form-factor matrix of " +
+                           std::to_string(p.n()) + " elements";
   const PreparationEstimate estimate = estimate_preparation(spec, p.n(), preparation_threads());
   check_limit("memory_gb", estimate.total_bytes(),
               what + " and what its preparation holds beside it (" + estimate.describe() + ")");
@@ -247,7 +266,7 @@ FormFactorMatrix build_method_matrix(Problem& problem) {
 // The method's matrix: loaded from the cache, else built under the key's lock (concurrent
 // processes, e.g. shards on an empty cache, build it once; a waiter finds it stored and loads
 // it).
-void load_or_build_matrix(Preparation& p) {
+void load_or_build_matrix(Preparation& p, double stored) {
   Problem& problem = p.problem;
   std::optional<FormFactorMatrix> cached = p.cache ? load_cached_matrix(p) : std::nullopt;
   if (p.cache && !cached) {
@@ -258,6 +277,7 @@ void load_or_build_matrix(Preparation& p) {
     problem.matrix = std::move(*cached);
     problem.preparation.push_back("matrix loaded");
   } else {
+    if (stored > 0) check_dense_limits(p, 0.0);  // the cached file was not usable: a build
     problem.matrix = build_method_matrix(problem);
     problem.preparation.push_back("matrix built");
   }
@@ -321,8 +341,9 @@ void matrix_stage(Preparation& p) {
   find_streamed_reference(p);
   const bool dense = p.spec.row_mode == RowMode::kCached || (p.spec.need_reference && !p.streamed);
   if (!dense) return;
-  check_dense_limits(p);
-  load_or_build_matrix(p);
+  const double stored = cached_matrix_bytes(p);
+  check_dense_limits(p, stored);
+  load_or_build_matrix(p, stored);
   check_and_store_matrix(p);
   derive_solver_matrix(p);
 }
@@ -494,16 +515,22 @@ std::unique_ptr<Problem> prepare_method(const ProblemSpec& spec) {
   return problem;
 }
 
-std::unique_ptr<Problem> prepare_matrix_block(const ProblemSpec& spec, size_t index, size_t count) {
+std::unique_ptr<Problem> prepare_matrix_block(const ProblemSpec& spec, size_t index, size_t count,
+                                              MatrixBlock* built) {
   MatrixCache cache{std::filesystem::path()};
   MatrixCacheKey key;
   auto problem = prepare_for_blocks(spec, cache, key);
-  const MatrixBlock block = matrix_block(problem->mesh.size(), index, count,
-                                         block_split(*problem->method, spec.ff_method));
-  // The limits hold for the block's own work and memory (a merge is checked as a whole
-  // preparation, when prepare_problem loads it).
-  const PreparationEstimate estimate =
-      estimate_matrix_block(spec, problem->mesh.size(), block, preparation_threads());
+  const BlockSplit split = block_split(*problem->method, spec.ff_method);
+  // Blocks of pairs are cut by the method's estimated work, as the merge and the plan cut them.
+  std::optional<PairWorkSplit> work;
+  if (split == BlockSplit::kPairs) work = pair_work_split(*problem->method, problem->mesh.size());
+  const MatrixBlock block =
+      matrix_block(problem->mesh.size(), index, count, split, work ? &*work : nullptr);
+  if (built) *built = block;
+  // The limits hold for the block's own work and memory, by the plan's estimate (the merge is
+  // checked by the merge's).
+  const PreparationEstimate estimate = estimate_matrix_block(
+      spec, problem->mesh.size(), block, preparation_threads(), work ? &*work : nullptr);
   const std::string what = problem->scene().name + ": " + block.label() + " of the form-factor " +
                            "matrix of " + std::to_string(problem->mesh.size()) + " elements";
   check_limit("memory_gb", estimate.total_bytes(), what + " (" + estimate.describe() + ")");
@@ -523,9 +550,28 @@ void merge_matrix_blocks(const ProblemSpec& spec, size_t count) {
   MatrixCache cache{std::filesystem::path()};
   MatrixCacheKey key;
   auto problem = prepare_for_blocks(spec, cache, key);
+  const size_t n = problem->mesh.size();
+  std::optional<PairWorkSplit> work;
+  if (block_split(*problem->method, spec.ff_method) == BlockSplit::kPairs)
+    work = pair_work_split(*problem->method, n);
+  // The merge and the preparation after it, by the plan's estimate of the blocks' stored size
+  // (their files: the merged matrix's entries; a missing block is refused by the merge).
+  double stored = 0.0;
+  for (const MatrixBlock& block : matrix_blocks(
+           n, count, block_split(*problem->method, spec.ff_method), work ? &*work : nullptr)) {
+    std::error_code ec;
+    const auto bytes = std::filesystem::file_size(matrix_block_file(cache, key, block), ec);
+    if (!ec) stored += double(bytes);
+  }
+  const PreparationEstimate estimate =
+      estimate_block_merge(spec, n, preparation_threads(), work ? &*work : nullptr, stored);
+  check_limit("memory_gb", estimate.total_bytes(),
+              problem->scene().name + ": the merge of " + std::to_string(count) +
+                  " blocks of the form-factor matrix of " + std::to_string(n) +
+                  " elements and its preparation (" + estimate.describe() + ")");
   const std::unique_ptr<FileLock> lock = cache.lock(key);
   const MergedMatrix merged =
-      merge_matrix_blocks(*problem->method, cache, key, problem->mesh.size(), count);
+      merge_matrix_blocks(*problem->method, cache, key, n, count, work ? &*work : nullptr);
   if (!store_merged_matrix(*problem->method, cache, key, merged))
     throw InputError(cache.path(key).string() +
                      ": cannot store the merged matrix (see the warning above)");

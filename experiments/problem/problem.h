@@ -22,6 +22,8 @@
 
 namespace radlab {
 
+struct MatrixBlock;
+
 enum class RowMode { kCached, kOnTheFly };
 
 struct ProblemSpec {
@@ -99,7 +101,9 @@ std::unique_ptr<Problem> prepare_method(const ProblemSpec& spec);
 // matrix under the matrix's lock; prepare_problem then loads it as any cached matrix. Both
 // refuse (UsageError) two-level problems, a spec without a cache and methods that are not built
 // in blocks.
-std::unique_ptr<Problem> prepare_matrix_block(const ProblemSpec& spec, size_t index, size_t count);
+// `built`, if given, receives the block (its rows, its share of the estimated work).
+std::unique_ptr<Problem> prepare_matrix_block(const ProblemSpec& spec, size_t index, size_t count,
+                                              MatrixBlock* built = nullptr);
 void merge_matrix_blocks(const ProblemSpec& spec, size_t count);
 
 }  // namespace radlab

@@ -27,21 +27,52 @@ uint64_t pairs_before(size_t n, size_t i) {
   return uint64_t(i) * (n - 1) - uint64_t(i) * (i - std::min<size_t>(i, 1)) / 2;
 }
 
-// The first row of pair block `index` of `count`: the least i whose pairs before it reach
-// (index - 1) / count of all (128-bit products: n^2 count overflows 64 bits past n = 2^21).
-size_t first_pair_row(size_t n, size_t index, size_t count) {
-  if (index > count) return n;
+// The cumulative work of rows [0, i): the split's, or the pair count.
+uint64_t work_before(size_t n, size_t i, const PairWorkSplit* work) {
+  return work ? work->cumulative[i] : pairs_before(n, i);
+}
+
+// The least row i whose work before it reaches (index - 1) / count of the total (128-bit
+// products: n^2 count overflows 64 bits past n = 2^21).
+size_t work_cut(size_t n, size_t index, size_t count, const PairWorkSplit* work) {
   __extension__ typedef unsigned __int128 Wide;
-  const Wide target = Wide(pairs_before(n, n)) * (index - 1);
+  const Wide target = Wide(work_before(n, n, work)) * (index - 1);
   size_t lo = 0, hi = n;  // the answer lies in [lo, hi]
   while (lo < hi) {
     const size_t mid = (lo + hi) / 2;
-    if (Wide(pairs_before(n, mid)) * count >= target)
+    if (Wide(work_before(n, mid, work)) * count >= target)
       hi = mid;
     else
       lo = mid + 1;
   }
   return lo;
+}
+
+// The first row of every pair block, in order, from the cuts c_K of the work: f_K =
+// min(max over m <= K of c_m + K - m, n - 1 - (count - K)), so that the blocks start at
+// strictly increasing rows (a row whose work spans several shares opens the next block one row
+// later) and leave a row for every later block. Where the cuts already increase (pair counts
+// with count <= n / 2 always do) f_K = c_K.
+std::vector<size_t> first_pair_rows(size_t n, size_t count, const PairWorkSplit* work) {
+  std::vector<size_t> first(count + 1, n);
+  size_t running = 0;  // max over m <= K of c_m + K - m
+  for (size_t k = 1; k <= count; ++k) {
+    running =
+        k == 1 ? work_cut(n, 1, count, work) : std::max(running + 1, work_cut(n, k, count, work));
+    first[k - 1] = std::min(running, n - 1 - (count - k));
+  }
+  return first;  // first[count] = n: the end of the last block
+}
+
+// The block's share of the split's work and its estimated facing pairs.
+void add_work(MatrixBlock& block, const PairWorkSplit& work) {
+  block.work = work.cumulative[block.end] - work.cumulative[block.first];
+  block.total_work = work.total();
+  block.facing_pairs =
+      work.cumulative_facing.empty()
+          ? 0.0
+          : double(work.cumulative_facing[block.end] - work.cumulative_facing[block.first]) *
+                double(work.sample);
 }
 
 }  // namespace
@@ -75,7 +106,49 @@ std::pair<size_t, size_t> parse_block_option(const std::string& text, const std:
   return {size_t(*index), size_t(*count)};
 }
 
-MatrixBlock matrix_block(size_t n, size_t index, size_t count, BlockSplit split) {
+PairWorkSplit pair_work_split(const FormFactorMethod& method, size_t n) {
+  PairWorkSplit split;
+  FormFactorMethod::PairWork work = method.pair_work();
+  split.cumulative.assign(n + 1, 0);
+  if (work.row_weight.empty()) {
+    for (size_t i = 0; i <= n; ++i) split.cumulative[i] = pairs_before(n, i);
+    return split;
+  }
+  if (work.row_weight.size() != n || work.row_facing.size() != n)
+    throw std::logic_error("pair_work of '" + method.name() + "': not one weight a row");
+  split.cumulative_facing.assign(n + 1, 0);
+  for (size_t i = 0; i < n; ++i) {
+    split.cumulative[i + 1] = split.cumulative[i] + work.row_weight[i];
+    split.cumulative_facing[i + 1] = split.cumulative_facing[i] + work.row_facing[i];
+  }
+  split.sample = std::max<uint32_t>(work.sample, 1);
+  split.unit = work.unit;
+  split.seconds_per_unit = work.seconds_per_unit;
+  return split;
+}
+
+std::vector<MatrixBlock> matrix_blocks(size_t n, size_t count, BlockSplit split,
+                                       const PairWorkSplit* work) {
+  std::vector<MatrixBlock> blocks;
+  if (split != BlockSplit::kPairs || count < 1 || count > n / 2) {
+    for (size_t k = 1; k <= count; ++k) blocks.push_back(matrix_block(n, k, count, split, work));
+    return blocks;
+  }
+  const MatrixBlock last = matrix_block(n, count, count, split, work);  // validates the arguments
+  const std::vector<size_t> first = first_pair_rows(n, count, work);
+  for (size_t k = 1; k <= count; ++k) {
+    MatrixBlock block = last;
+    block.index = k;
+    block.first = first[k - 1];
+    block.end = first[k];
+    if (work) add_work(block, *work);
+    blocks.push_back(block);
+  }
+  return blocks;
+}
+
+MatrixBlock matrix_block(size_t n, size_t index, size_t count, BlockSplit split,
+                         const PairWorkSplit* work) {
   if (count < 1) throw UsageError("blocks: the block count must be >= 1");
   if (index < 1 || index > count)
     throw UsageError("blocks: block " + std::to_string(index) + " is outside 1.." +
@@ -95,8 +168,13 @@ MatrixBlock matrix_block(size_t n, size_t index, size_t count, BlockSplit split)
   block.split = split;
   block.n = n;
   if (pairs) {
-    block.first = first_pair_row(n, index, count);
-    block.end = index == count ? n : first_pair_row(n, index + 1, count);
+    if (work && work->cumulative.size() != n + 1)
+      throw std::logic_error("matrix_block: a work split of another matrix");
+    // Block `index` needs the cuts before it (first_pair_rows); O(count log n).
+    const std::vector<size_t> first = first_pair_rows(n, count, work);
+    block.first = first[index - 1];
+    block.end = first[index];
+    if (work) add_work(block, *work);
   } else {
     // n index <= n^2 fits in 64 bits for any n below 2^32 (the cache allows 2^24).
     block.first = size_t(uint64_t(n) * (index - 1) / count);
@@ -297,18 +375,20 @@ void each_stored(const FormFactorMatrix& m, size_t r, Fn&& fn) {
 }  // namespace
 
 MergedMatrix merge_matrix_blocks(const FormFactorMethod& method, const MatrixCache& cache,
-                                 const CacheKey& matrix_key, size_t n, size_t count) {
+                                 const CacheKey& matrix_key, size_t n, size_t count,
+                                 const PairWorkSplit* work) {
   const BlockSplit split = block_split(method, method.name());
   const bool pairs = split == BlockSplit::kPairs;
-  std::vector<MatrixBlock> blocks;
+  std::optional<PairWorkSplit> computed;
+  if (pairs && !work) work = &computed.emplace(pair_work_split(method, n));
+  const std::vector<MatrixBlock> blocks = matrix_blocks(n, count, split, pairs ? work : nullptr);
   std::string missing;
   size_t missing_count = 0;
-  for (size_t k = 1; k <= count; ++k) {
-    blocks.push_back(matrix_block(n, k, count, split));
-    const std::filesystem::path file = matrix_block_file(cache, matrix_key, blocks.back());
+  for (const MatrixBlock& block : blocks) {
+    const std::filesystem::path file = matrix_block_file(cache, matrix_key, block);
     std::error_code ec;
     if (!std::filesystem::exists(file, ec)) {
-      missing += "\n  " + blocks.back().label() + ": " + file.string();
+      missing += "\n  " + block.label() + ": " + file.string();
       ++missing_count;
     }
   }

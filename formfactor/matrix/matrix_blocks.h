@@ -5,14 +5,19 @@
 //
 // Two splits, chosen by the method (FormFactorMethod::builds_in_pair_blocks / _row_blocks):
 //   pairs  (raycast, exact: a pair's F_ij and F_ji share its visibility, quadrature or integral)
-//          block K of B holds the unordered pairs (i, j > i) with i in [first, end), the rows
-//          chosen so that the blocks hold equal numbers of pairs (the first pair count
-//          i (n - 1) - i (i - 1) / 2 at or above K - 1 B-ths of n (n - 1) / 2), and stores both
-//          entries of each; each pair is computed once over all blocks, as in one process (the
-//          blocks' rays add up to a one-process build's). Equal pairs, not equal work: a pair's
-//          cost is mostly its rays, which grow for large elements close together (soda.mgf's
-//          first block of 64 took 10x its middle one: docs/workflow.md). At most n / 2 blocks
-//          (then every block holds at least one row's worth of pairs).
+//          block K of B holds the unordered pairs (i, j > i) with i in [first, end), and stores
+//          both entries of each; each pair is computed once over all blocks, as in one process
+//          (the blocks' rays add up to a one-process build's). The rows are chosen so that the
+//          blocks hold equal shares of the pairs' estimated work (PairWorkSplit): block K starts
+//          at the first row whose rows before it hold at least K - 1 B-ths of the total work, so
+//          each block's work lies within one row's work of total / B. The work is the method's
+//          estimate (FormFactorMethod::pair_work: raycast's rays from a sample of each row's
+//          pairs; equal pairs are not equal work, soda.mgf's first block of 64 by pair counts
+//          took 10x its middle one: docs/workflow.md), else each row's pair count (equal pairs).
+//          Every block, the merge and the plan compute the same estimate from the scene and cut
+//          the same rows; the block key records them, so a block of another cut is refused by
+//          name. At most n / 2 blocks; where one row's work spans several shares the later
+//          blocks start a row apart, so no block is empty.
 //   rows   (the hemicube: a row is one z-buffer) block K of B holds rows
 //          [floor(n (K-1) / B), floor(n K / B)); at most n blocks. A row's cost does not depend
 //          on its index, so equal rows are equal work.
@@ -58,6 +63,10 @@ struct MatrixBlock {
   BlockSplit split = BlockSplit::kRows;
   size_t first = 0, end = 0;  // rows [first, end): the rows, or the pairs' first elements
   size_t n = 0;
+  // Blocks of pairs cut by a PairWorkSplit: the block's share of its work and its estimated
+  // facing pairs (those that can hold an entry: the sampled ones times the sample), else 0.
+  uint64_t work = 0, total_work = 0;
+  double facing_pairs = 0;
   // Unordered pairs held (kPairs), or the rows' entries (kRows: (end - first) n).
   size_t pairs() const;
   // Entries computed: 2 pairs() or (end - first) n.
@@ -70,10 +79,28 @@ struct MatrixBlock {
 // 1 <= K <= B.
 std::pair<size_t, size_t> parse_block_option(const std::string& text, const std::string& option);
 
+// The work a split of pairs divides, row by row: cumulative[i] the estimated work of the pairs
+// of rows [0, i) (n + 1 values; cumulative[n] the total), from the method's pair_work, or the
+// pair counts when it gives none (`unit` empty). Also the sampled facing pairs, cumulated.
+struct PairWorkSplit {
+  std::vector<uint64_t> cumulative;
+  std::vector<uint64_t> cumulative_facing;  // empty without an estimate
+  uint32_t sample = 1;
+  std::string unit;
+  double seconds_per_unit = 0.0;
+  uint64_t total() const { return cumulative.empty() ? 0 : cumulative.back(); }
+};
+// Calls method.pair_work() (deterministic; seconds at soda.mgf) and cumulates it.
+PairWorkSplit pair_work_split(const FormFactorMethod& method, size_t n);
+
 // Block `index` of `count` of an n-row matrix. UsageError when count < 1 or index is outside
 // 1..count; InputError when count is above n (rows) or n / 2 (pairs): a block would be empty.
-MatrixBlock matrix_block(size_t n, size_t index, size_t count,
-                         BlockSplit split = BlockSplit::kRows);
+// Blocks of pairs are cut by `work` (PairWorkSplit of this n), or by pair counts without it.
+MatrixBlock matrix_block(size_t n, size_t index, size_t count, BlockSplit split = BlockSplit::kRows,
+                         const PairWorkSplit* work = nullptr);
+// Every block of the split, in order (one pass: for the merge and the plan).
+std::vector<MatrixBlock> matrix_blocks(size_t n, size_t count, BlockSplit split,
+                                       const PairWorkSplit* work = nullptr);
 
 // The method's split; UsageError naming the method when it is not built in blocks.
 BlockSplit block_split(const FormFactorMethod& method, const std::string& method_name);
@@ -100,9 +127,11 @@ struct MergedMatrix {
 };
 // Reads and verifies every block (InputError naming each missing block, or the block and file
 // at fault and why) and assembles the matrix; writes nothing. Pair blocks: restores the
-// method's side state (restore_pair_block_states).
+// method's side state (restore_pair_block_states); they are cut by `work` (computed from the
+// method when null, as every block computes it).
 MergedMatrix merge_matrix_blocks(const FormFactorMethod& method, const MatrixCache& cache,
-                                 const CacheKey& matrix_key, size_t n, size_t count);
+                                 const CacheKey& matrix_key, size_t n, size_t count,
+                                 const PairWorkSplit* work = nullptr);
 // Stores the merged matrix under `matrix_key` and its side files beside it; false when the
 // cache could not be written (a warning says why).
 bool store_merged_matrix(const FormFactorMethod& method, const MatrixCache& cache,

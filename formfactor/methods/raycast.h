@@ -101,6 +101,9 @@ class RaycastFormFactors final : public FormFactorMethod {
   bool builds_in_pair_blocks() const override { return true; }
   void pair_entries(size_t i, std::span<double> upper, std::span<double> lower,
                     RowCost& cost) const override;
+  // Each row's pairs' expected work in ray-equivalents from every kWorkSample-th of them:
+  // raycast.cpp, pair_work.
+  PairWork pair_work() const override;
   size_t pair_block_state_bytes(size_t n) const override { return n * kRowStateBytes; }
   std::vector<char> pair_block_state() const override;
   bool restore_pair_block_states(const std::vector<std::vector<char>>& states) const override;

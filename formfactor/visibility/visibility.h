@@ -64,6 +64,9 @@ class Visibility {
   // ratio_standard_error in visibility.cpp), the same for V_ji. Thread-safe.
   double fraction(size_t i, size_t j, RowCost& cost, double* sigma = nullptr) const;
 
+  // The rays fraction() casts for the pair when it needs rays (rays_for in visibility.cpp; from
+  // the areas and the centroids' distance alone): also the raycast's estimate of a pair's work.
+  int rays_for(size_t i, size_t j) const;
   // True when the pair needs rays (some polygon may block it); does no ray casting.
   bool needs_rays(size_t i, size_t j) const;
   // A polygon that may block the pair, or -1 (for messages).
@@ -121,7 +124,6 @@ class Visibility {
  private:
   // V in steps of 1/kSteps from R rays; its standard error in `sigma`.
   int trace(size_t i, size_t j, int R, RowCost& cost, double& sigma) const;
-  int rays_for(size_t i, size_t j) const;  // rays for a partly occluded pair
   void compute_own_polygon_margins();
   bool leaves_own_polygon(size_t from, double height) const;
   // The parts of lo and hi the rays join (each clipped to the other's front), with the least

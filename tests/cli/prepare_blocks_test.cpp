@@ -248,17 +248,18 @@ TEST(PrepareBlocks, BlockIndexOrCountOutOfRangeIsAUsageError) {
 }
 
 // A block is held to the limits by its own work: block 1 of 3 of 80 elements holds the pairs of
-// rows 0 to 14, 15 * 79 - 15 * 14 / 2 = 1,080 of the 3,160 (a third is 1,053.3), 2,160 entries.
+// rows 0 to 4 (raycast's first rows, the large elements, cost most: a third of the estimated
+// work), 5 * 79 - 5 * 4 / 2 = 385 of the 3,160 pairs, 770 entries.
 TEST(PrepareBlocks, ABlockIsHeldToTheLimitsByItsOwnPairs) {
   TempDir dir;
   const std::string exp = experiment(dir, "raycast"), cache = dir.file("cache");
-  const Result refused = prepare(cache, exp + " --problem 0 --block 1/3", "--limits pairs=2000");
+  const Result refused = prepare(cache, exp + " --problem 0 --block 1/3", "--limits pairs=700");
   EXPECT_EQ(refused.code, 3) << refused.output;
   EXPECT_OUTPUT_HAS(refused,
-                    "block 1/3 (pairs of rows 0 to 14) of the form-factor matrix of 80 elements");
-  EXPECT_OUTPUT_HAS(refused, "2160 pairs, above the limit of 2000 pairs");
+                    "block 1/3 (pairs of rows 0 to 4) of the form-factor matrix of 80 elements");
+  EXPECT_OUTPUT_HAS(refused, "770 pairs, above the limit of 700 pairs");
   EXPECT_TRUE(files_ending(cache, ".ffb").empty());
-  EXPECT_EQ(prepare(cache, exp + " --problem 0 --block 1/3", "--limits pairs=2200").code, 0);
+  EXPECT_EQ(prepare(cache, exp + " --problem 0 --block 1/3", "--limits pairs=800").code, 0);
 }
 
 // Each refusal names the block and its file, exits 3 and writes no matrix.
@@ -276,7 +277,7 @@ TEST(PrepareBlocks, AMissingBlockIsNamed) {
   for (const char* block : {"1/3", "3/3"})
     ASSERT_EQ(prepare(cache, exp + " --problem 0 --block " + block).code, 0);
   expect_refused(exp, cache, 3,
-                 "1 missing (nothing written):\n  block 2/3 (pairs of rows 15 to 33)");
+                 "1 missing (nothing written):\n  block 2/3 (pairs of rows 5 to 25)");
   EXPECT_EQ(prepare(cache, exp + " --problem 0 --block 2/3").code, 0);
   EXPECT_EQ(prepare(cache, exp + " --merge-blocks 3").code, 0);  // complete now
 }
@@ -291,7 +292,7 @@ TEST(PrepareBlocks, ABlockOfAnotherSplitOrSceneIsRefused) {
   blocks_then_merge(exp, other_split, 4);
   fs::copy_file(only_file(other_split, ".block-2-of-4.ffb"), second,
                 fs::copy_options::overwrite_existing);
-  expect_refused(exp, cache, 3, second.string() + ": block 2/3 (pairs of rows 15 to 33)");
+  expect_refused(exp, cache, 3, second.string() + ": block 2/3 (pairs of rows 5 to 25)");
   expect_refused(exp, cache, 3, "block=2/4");
   // Block 2 of 3 of another scene (another mesh: another key).
   const std::string other_scene = dir.file("scene");
@@ -311,7 +312,7 @@ TEST(PrepareBlocks, ACorruptBlockOrSideFileIsRefused) {
   std::string damaged = intact;
   damaged[damaged.size() - 3] ^= 0x10;  // a bit of the last value
   std::ofstream(third, std::ios::binary | std::ios::trunc) << damaged;
-  expect_refused(exp, cache, 3, third.string() + ": block 3/3 (pairs of rows 34 to 79)");
+  expect_refused(exp, cache, 3, third.string() + ": block 3/3 (pairs of rows 26 to 79)");
   expect_refused(exp, cache, 3, "checksum mismatch");
   std::ofstream(third, std::ios::binary | std::ios::trunc) << intact;
   const fs::path sigma = third.string() + ".pairstate";
@@ -326,21 +327,57 @@ TEST(PrepareBlocks, PlanGivesEachBlockAndTheMerge) {
   const std::string exp = experiment(dir, "raycast"), cache = dir.file("cache");
   const Result plan = prepare(cache, exp + " --plan --blocks 3");
   ASSERT_EQ(plan.code, 0) << plan.output;
-  // Blocks of 1,080, 1,045 and 1,035 of the 3,160 pairs (rows 0-14, 15-33, 34-79).
+  // Blocks of 385, 1,344 and 1,431 of the 3,160 pairs (rows 0-4, 5-25, 26-79), cut by raycast's
+  // estimated work.
   for (const char* part :
-       {"\"block_split\": \"pairs\"", "\"block\": 1,", "\"pairs\": 1080,", "\"block\": 3,",
-        "\"first_row\": 34,", "\"end_row\": 80,", "\"pairs\": 1035,", "\"merge\": {"})
+       {"\"block_split\": \"pairs\"", "\"block\": 1,", "\"pairs\": 385,", "\"block\": 3,",
+        "\"first_row\": 26,", "\"end_row\": 80,", "\"pairs\": 1431,", "\"merge\": {",
+        "\"block_work_unit\": \"ray-equivalents"})
     EXPECT_OUTPUT_HAS(plan, part);
   EXPECT_FALSE(fs::exists(cache));  // --plan builds nothing
   const Result exact = prepare(cache, experiment(dir, "exact") + " --plan --blocks 3");
   ASSERT_EQ(exact.code, 0) << exact.output;
   EXPECT_OUTPUT_HAS(exact, "\"block_split\": \"pairs\"");
-  EXPECT_OUTPUT_HAS(exact, "\"first_row\": 34,");
+  EXPECT_OUTPUT_HAS(exact, "\"first_row\": 34,");  // no estimate: equal pairs
+  EXPECT_EQ(exact.output.find("block_work_unit"), std::string::npos) << exact.output;
   const Result hemicube = prepare(cache, experiment(dir, "hemicube") + " --plan --blocks 3");
   ASSERT_EQ(hemicube.code, 0) << hemicube.output;
   EXPECT_OUTPUT_HAS(hemicube, "\"block_split\": \"rows\"");
   EXPECT_OUTPUT_HAS(hemicube, "\"first_row\": 53,");
   EXPECT_OUTPUT_HAS(hemicube, "\"entries\": 2160,");
+}
+
+// The values of every `"key": N` in `json`, in order.
+std::vector<uint64_t> numbers_of(const std::string& json, const std::string& key) {
+  std::vector<uint64_t> values;
+  const std::string field = "\"" + key + "\": ";
+  for (size_t at = json.find(field); at != std::string::npos; at = json.find(field, at + 1))
+    values.push_back(std::stoull(json.substr(at + field.size())));
+  return values;
+}
+
+// The plan, every block and the merge compute raycast's work estimate anew from the scene and
+// cut the same rows: each block's record holds the plan's rows and work share, and the merge
+// (which refuses a block of other rows by its key) accepts them.
+TEST(PrepareBlocks, ThePlanTheBlocksAndTheMergeCutTheSameRows) {
+  TempDir dir;
+  const std::string exp = experiment(dir, "raycast"), cache = dir.file("cache");
+  const Result plan = prepare(cache, exp + " --plan --blocks 7");
+  ASSERT_EQ(plan.code, 0) << plan.output;
+  const std::vector<uint64_t> first = numbers_of(plan.output, "first_row"),
+                              end = numbers_of(plan.output, "end_row"),
+                              work = numbers_of(plan.output, "work");
+  ASSERT_EQ(first.size(), 7u);
+  ASSERT_EQ(work.size(), 7u);
+  blocks_then_merge(exp, cache, 7);
+  for (size_t k = 1; k <= 7; ++k) {
+    SCOPED_TRACE("block " + std::to_string(k));
+    const std::string record = bytes_of(cache + "_block" + std::to_string(k) + ".json");
+    EXPECT_EQ(numbers_of(record, "first_row"), std::vector<uint64_t>{first[k - 1]});
+    EXPECT_EQ(numbers_of(record, "end_row"), std::vector<uint64_t>{end[k - 1]});
+    EXPECT_EQ(numbers_of(record, "work"), std::vector<uint64_t>{work[k - 1]});
+  }
+  EXPECT_EQ(prepare(cache, exp + " --merge-blocks 7").code, 0);
 }
 
 }  // namespace
