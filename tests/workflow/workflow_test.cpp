@@ -45,6 +45,13 @@ bool have_snakemake() {
   return shell("snakemake --version").code == 0;
 }
 
+// A test body's first line: without snakemake the workflow cannot be tested (GTEST_SKIP returns
+// from the test, so this is a macro).
+#define SKIP_WITHOUT_SNAKEMAKE()                                                           \
+  if (!have_snakemake())                                                                   \
+  GTEST_SKIP() << "snakemake is not installed (scripts/install-deps.sh installs Debian's " \
+                  "snakemake): the workflow is not tested"
+
 // Extra snakemake arguments from $RADLAB_WORKFLOW_ARGS: scripts/test-slurm.sh runs these tests
 // through Slurm with "--profile workflow/profiles/slurm".
 std::string extra_arguments() {
@@ -168,9 +175,7 @@ TEST(Prepare, FillsTheCacheThatRunThenLoads) {
 }
 
 TEST(Workflow, ShardedEqualsUnshardedAndRedoesOnlyWhatIsMissing) {
-  if (!have_snakemake())
-    GTEST_SKIP() << "snakemake is not installed (scripts/install-deps.sh installs Debian's "
-                    "snakemake): the workflow is not tested";
+  SKIP_WITHOUT_SNAKEMAKE();
   TempDir dir;
   // A copy, so that touching it (below) leaves the source tree alone.
   const std::string experiment = dir.file("tiny.toml");
@@ -237,9 +242,7 @@ TEST(Workflow, ShardedEqualsUnshardedAndRedoesOnlyWhatIsMissing) {
 }
 
 TEST(Workflow, AKilledShardResumesWhatItFinished) {
-  if (!have_snakemake())
-    GTEST_SKIP() << "snakemake is not installed (scripts/install-deps.sh installs Debian's "
-                    "snakemake): the workflow is not tested";
+  SKIP_WITHOUT_SNAKEMAKE();
   TempDir dir;
   // Six runs of ~0.4 s each (jacobi on a 216-element cube, 300k rows), so a kill lands mid-shard.
   const std::string toml =
@@ -292,9 +295,7 @@ TEST(Workflow, AKilledShardResumesWhatItFinished) {
 TEST(Workflow, AnEditedMaterialOrACutShardRedoesTheShards) {
   // Defects (issue 36.2, 36.5): box.mtl edited after a complete workflow, and the workflow said
   // "Nothing to be done"; a shard's summary.csv cut, and every rerun failed in the merge.
-  if (!have_snakemake())
-    GTEST_SKIP() << "snakemake is not installed (scripts/install-deps.sh installs Debian's "
-                    "snakemake): the workflow is not tested";
+  SKIP_WITHOUT_SNAKEMAKE();
   TempDir dir;
   dir.write("box.obj", testing::kBoxObj);
   dir.write("box.mtl", testing::kBoxMtl);
@@ -355,9 +356,7 @@ rows = 200
 }
 
 TEST(Workflow, FailuresFailTheirJobWithRadlabsMessage) {
-  if (!have_snakemake())
-    GTEST_SKIP() << "snakemake is not installed (scripts/install-deps.sh installs Debian's "
-                    "snakemake): the workflow is not tested";
+  SKIP_WITHOUT_SNAKEMAKE();
   TempDir dir;
   // A tolerance below the float storage floor (~8e-9 of max B*; above the reference's own,
   // ~1.6e-15, which would be refused): every run stagnates, a numerical failure (exit 4).
@@ -410,9 +409,7 @@ std::string bytes_from(const std::string& file, size_t offset) {
 // records the build's time and ray count, tests/cli/prepare_blocks_test.cpp), and the sweep's
 // results are the unsharded run's; a lost block record reruns that block alone.
 TEST(Workflow, BlocksMergeIntoTheOneProcessMatrix) {
-  if (!have_snakemake())
-    GTEST_SKIP() << "snakemake is not installed (scripts/install-deps.sh installs Debian's "
-                    "snakemake): the workflow is not tested";
+  SKIP_WITHOUT_SNAKEMAKE();
   TempDir dir;
   const std::string experiment = std::string(RADLAB_SOURCE_DIR) + "/workflow/test/blocks.toml";
   const std::string cache = dir.file("cache"), out = dir.file("out");
@@ -464,9 +461,7 @@ TEST(Workflow, BlocksMergeIntoTheOneProcessMatrix) {
 // config radlab_options: global radlab options (--limits for a scene above the defaults) reach
 // the plan, read when the workflow is parsed, and every job's command.
 TEST(Workflow, RadlabOptionsReachThePlanAndEveryJob) {
-  if (!have_snakemake())
-    GTEST_SKIP() << "snakemake is not installed (scripts/install-deps.sh installs Debian's "
-                    "snakemake): the workflow is not tested";
+  SKIP_WITHOUT_SNAKEMAKE();
   TempDir dir;
   const std::string experiment = std::string(RADLAB_SOURCE_DIR) + "/workflow/test/blocks.toml";
   const std::string cache = dir.file("cache"), out = dir.file("out");
