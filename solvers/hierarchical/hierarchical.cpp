@@ -38,10 +38,12 @@
 //   its polygons, from a list of distinct normals) with an estimate bounded over the two
 //   bounding spheres, clusters open before polygons, visibility between clusters by 16 segments
 //   between points on their charts (Embree), and gathers push a cluster's light to all its charts
-//   and pull its B as their area average (hierarchical_hierarchy.h). clustering=none (the
-//   default) makes exactly the unclustered links, the same bits as before clustering existed.
-// Left out: a per-orientation push (a cluster's gathered light goes to every member alike),
-//   lazy linking, shooting, and error-driven (rather than F- or BF-driven) oracles.
+//   and pull its B as their area average (hierarchical_hierarchy.h); oriented clusters push and
+//   pull per orientation instead (a face gets only the light of the sources it faces, a link
+//   reads the faces turned to its receiver; rows=balanced keeps the area-average ones).
+//   clustering=none (the default) makes exactly the unclustered links, the same bits as before
+//   clustering existed.
+// Left out: lazy linking, shooting, and error-driven (rather than F- or BF-driven) oracles.
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -135,6 +137,12 @@ class HierarchicalSolver final : public Solver {
     elements_ = element_charts(scene, system.mesh(), charts_);
     clusters_ = o_.clustering != "none" ? build_clusters(charts_, o_.clustering == "oriented")
                                         : ClusterTree{};
+    if (o_.clustering == "oriented" && clusters_.size() > 0) {
+      std::vector<uint8_t> emits(charts_.size(), 0);
+      for (size_t c = 0; c < charts_.size(); ++c)
+        emits[c] = scene.materials[size_t(scene.polygons[charts_[c].polygon].material)].emits();
+      mark_emitters(clusters_, emits);
+    }
     visibility_ = std::make_unique<NodeVisibility>(scene);
     channels_ = system.channels();
     chart_emission_.clear();
@@ -357,6 +365,10 @@ class HierarchicalSolver final : public Solver {
     Hierarchy tree = build_hierarchy(charts_, links_, &tree_, chart_emission_, chart_reflectance_,
                                      channels_, &clusters_);
     tree_ = std::move(tree);
+    // Per-orientation push and pull through oriented clusters (hierarchical_hierarchy.h); the
+    // column balance keeps the area-average ones its scaling is built on.
+    if (o_.clustering == "oriented" && o_.rows != "balanced")
+      enable_orientation_slots(tree_, charts_);
     counts_.max_depth = 0;
     for (const NodeKey& k : tree_.key)
       if (!k.is_cluster()) counts_.max_depth = std::max(counts_.max_depth, k.depth);
@@ -453,7 +465,8 @@ SolverInfo hierarchical_solver_info() {
             "none: refine every pair of polygons; isotropic: start from the root of a cluster "
             "hierarchy (Embree rtcBuildBVH) linked to itself, isotropic clusters (Smits et al. "
             "1994, Sillion 1995); oriented: the same with each cluster's projected area that of "
-            "its polygons (up to 16 distinct normals exact, the rest isotropic)"}},
+            "its polygons (up to 16 distinct normals exact, the rest isotropic), its light "
+            "pushed and pulled per orientation"}},
           [](ParamBag& bag) -> std::unique_ptr<Solver> {
             return std::make_unique<HierarchicalSolver>(HierarchicalOptions::from(bag));
           }};

@@ -420,6 +420,15 @@ void Refiner::refine_clustered(const Node& p, const Node& q, Known known,
     ++(facing > 0 ? stats.occluded : stats.facing_away);
     return;
   }
+  // A cluster holding a lamp is opened until the lamp is a surface of its own (oriented): as a
+  // cluster's light its emission would be spread over the cluster's faces and sent from its
+  // centre, moving the direct light, which refinement on F alone does not see.
+  const bool p_emits = pc && !clusters_->emitting.empty() && clusters_->emitting[p.key.chart];
+  const bool q_emits = qc && !clusters_->emitting.empty() && clusters_->emitting[q.key.chart];
+  if (p_emits || q_emits) {
+    open(p, q, q_emits && (!p_emits || radius(q) >= radius(p)), Known::kUnknown, out, stats);
+    return;
+  }
   if (std::max(e_pq, e_qp) >= c_.feps) {
     // The children's pairs are other pairs of surfaces, not parts of this one: 16 free segments
     // between two clusters say nothing of every pair of their members, so nothing is inherited.
