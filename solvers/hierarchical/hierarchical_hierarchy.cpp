@@ -214,6 +214,32 @@ void gather_slotted(Hierarchy& h, size_t begin, size_t end) {
   const std::vector<double>& sent = h.sent();
   auto gather = [&](size_t i) {
     const bool cluster = i < h.clusters;
+    if (!cluster) {
+      // A node: its links from nodes channel by channel, as gather_range does (the bulk of the
+      // work), then those from clusters, read toward it, then its clusters' links by its own
+      // rule.
+      double sum[3] = {0.0, 0.0, 0.0};
+      for (int c = 0; c < h.channels; ++c) {
+        const double* B = sent.data() + size_t(c) * n;
+        double acc = 0.0;
+        for (uint64_t k = h.first[i]; k < h.first[i + 1]; ++k)
+          if (h.source[k] >= h.clusters) acc += h.factor[k] * B[h.source[k]];
+        sum[c] = acc;
+      }
+      for (uint64_t k = h.first[i]; k < h.first[i + 1]; ++k) {
+        const uint32_t s = h.source[k];
+        if (s >= h.clusters) continue;
+        double value[3] = {0.0, 0.0, 0.0};
+        slot_directional(h, h.slot_sent, s, unit(h.node_centre[i] - h.node_centre[s]), value);
+        for (int c = 0; c < h.channels; ++c) sum[c] += h.factor[k] * value[c];
+      }
+      if (h.leaf_rule())
+        for (uint64_t k = h.leaf_link_first[i]; k < h.leaf_link_first[i + 1]; ++k)
+          for (int c = 0; c < h.channels; ++c)
+            sum[c] += h.leaf_link_factor[k] * h.link_value[size_t(c) * E + h.leaf_link_entry[k]];
+      for (int c = 0; c < h.channels; ++c) h.gathered[size_t(c) * n + i] = sum[c];
+      return;
+    }
     const bool push = cluster && !h.leaf_rule();
     const uint32_t s0 = push ? t.slot_first[i] : 0, s1 = push ? t.slot_first[i + 1] : 0;
     for (int c = 0; c < h.channels; ++c)
@@ -246,11 +272,6 @@ void gather_slotted(Hierarchy& h, size_t begin, size_t end) {
         for (int c = 0; c < h.channels; ++c) h.slot_gathered[size_t(c) * S + j] += f * value[c];
       }
     }
-    if (h.leaf_rule() && !cluster)
-      // The links at the clusters above a leaf, each by the leaf's own factor.
-      for (uint64_t k = h.leaf_link_first[i]; k < h.leaf_link_first[i + 1]; ++k)
-        for (int c = 0; c < h.channels; ++c)
-          sum[c] += h.leaf_link_factor[k] * h.link_value[size_t(c) * E + h.leaf_link_entry[k]];
     for (int c = 0; c < h.channels; ++c) h.gathered[size_t(c) * n + i] = sum[c];
   };
   // The clusters first: their links' values are what the leaves read.
