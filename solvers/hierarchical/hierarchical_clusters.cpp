@@ -14,7 +14,9 @@ size_t ClusterTree::memory_bytes() const {
   return clusters.size() * sizeof(Cluster) + order.size() * sizeof(uint32_t) +
          cumulative_area.size() * sizeof(double) + chart_parent.size() * sizeof(int32_t) +
          normal_first.size() * sizeof(uint32_t) + normal.size() * sizeof(Vec3) +
-         (normal_area.size() + rest_area.size()) * sizeof(double);
+         (normal_area.size() + rest_area.size() + slot_area.size()) * sizeof(double) +
+         (slot_first.size() + chart_slot_first.size() + chart_slot.size()) * sizeof(uint32_t) +
+         emitting.size();
 }
 
 double ClusterTree::projected_area(uint32_t c, const Vec3& w) const {
@@ -23,6 +25,12 @@ double ClusterTree::projected_area(uint32_t c, const Vec3& w) const {
   for (uint32_t k = normal_first[c]; k < normal_first[c + 1]; ++k)
     p += normal_area[k] * std::max(0.0, glm::dot(normal[k], w));
   return p;
+}
+
+double ClusterTree::slot_projected_area(uint32_t c, uint32_t slot, const Vec3& w) const {
+  const uint32_t k = normal_first[c] + (slot - slot_first[c]);
+  if (k >= normal_first[c + 1]) return 0.25 * rest_area[c];  // the remainder
+  return normal_area[k] * std::max(0.0, glm::dot(normal[k], w));
 }
 
 double ClusterTree::projected_area_bound(uint32_t c, const Vec3& w, double spread) const {
@@ -169,47 +177,96 @@ void measure_clusters(ClusterTree& t, const std::vector<Chart>& charts,
 // Oriented clusters' normal lists, children before parents: a chart contributes its normal and
 // area, a cluster its children's lists merged (left child first, then right, in list order, so
 // the result does not depend on threads or hashing); past kOrientedNormals, the normals of
-// largest area are kept (ties by list order) and the rest join the isotropic remainder.
+// largest area are kept (ties by list order) and the rest join the isotropic remainder. Where
+// each child entry (and each chart) went is recorded, so every chart's slot in every cluster above
+// it is known exactly (a chart's area is counted in that slot and no other).
 void orient_clusters(ClusterTree& t, const std::vector<Chart>& charts) {
   const size_t n = t.clusters.size();
   std::vector<std::vector<std::pair<Vec3, double>>> lists(n);
   std::vector<double> rest(n, 0.0);
+  // Per cluster, per entry of its list: the entry of its parent's list it went to (-1: the
+  // parent's remainder, or no parent). Per chart: its entry in its cluster's list.
+  std::vector<std::vector<int32_t>> up(n);
+  std::vector<int32_t> chart_entry(charts.size(), -1);
   for (size_t i = n; i-- > 0;) {
     std::vector<std::pair<Vec3, double>>& list = lists[i];
-    auto add = [&](const Vec3& normal, double area) {
-      if (!(area > 0.0)) return;  // a degenerate chart has no normal and sends nothing
-      for (auto& [m, a] : list)
-        if (glm::dot(m, normal) > 1.0 - 1e-9) {
-          a += area;
-          return;
+    auto add = [&](const Vec3& normal, double area) -> int32_t {
+      if (!(area > 0.0)) return -1;  // a degenerate chart has no normal and sends nothing
+      for (size_t e = 0; e < list.size(); ++e)
+        if (glm::dot(list[e].first, normal) > 1.0 - 1e-9) {
+          list[e].second += area;
+          return int32_t(e);
         }
       list.emplace_back(normal, area);
+      return int32_t(list.size() - 1);
     };
     for (int k = 0; k < 2; ++k) {
       const int32_t ch = t.clusters[i].child[k];
       if (ch >= 0) {
-        for (const auto& [m, a] : lists[size_t(ch)]) add(m, a);
+        const auto& child = lists[size_t(ch)];
+        up[size_t(ch)].assign(child.size(), -1);
+        for (size_t e = 0; e < child.size(); ++e)
+          up[size_t(ch)][e] = add(child[e].first, child[e].second);
         rest[i] += rest[size_t(ch)];
       } else {
-        add(charts[size_t(~ch)].normal, charts[size_t(~ch)].area);
+        chart_entry[size_t(~ch)] = add(charts[size_t(~ch)].normal, charts[size_t(~ch)].area);
       }
     }
     if (list.size() > kOrientedNormals) {
-      std::stable_sort(list.begin(), list.end(),
-                       [](const auto& a, const auto& b) { return a.second > b.second; });
-      for (size_t k = kOrientedNormals; k < list.size(); ++k) rest[i] += list[k].second;
-      list.resize(kOrientedNormals);
+      std::vector<int32_t> rank(list.size());
+      for (size_t e = 0; e < list.size(); ++e) rank[e] = int32_t(e);
+      std::stable_sort(rank.begin(), rank.end(), [&](int32_t a, int32_t b) {
+        return list[size_t(a)].second > list[size_t(b)].second;
+      });
+      std::vector<int32_t> renumber(list.size(), -1);
+      std::vector<std::pair<Vec3, double>> kept;
+      for (size_t r = 0; r < list.size(); ++r) {
+        const size_t e = size_t(rank[r]);
+        if (r < kOrientedNormals) {
+          renumber[e] = int32_t(kept.size());
+          kept.push_back(list[e]);
+        } else {
+          rest[i] += list[e].second;
+        }
+      }
+      list.swap(kept);
+      for (int k = 0; k < 2; ++k) {
+        const int32_t ch = t.clusters[i].child[k];
+        if (ch >= 0) {
+          for (int32_t& e : up[size_t(ch)])
+            if (e >= 0) e = renumber[size_t(e)];
+        } else if (chart_entry[size_t(~ch)] >= 0) {
+          chart_entry[size_t(~ch)] = renumber[size_t(chart_entry[size_t(~ch)])];
+        }
+      }
     }
   }
   t.normal_first.assign(n + 1, 0);
+  t.slot_first.assign(n + 1, 0);
   for (size_t i = 0; i < n; ++i) {
     t.normal_first[i + 1] = t.normal_first[i] + uint32_t(lists[i].size());
+    t.slot_first[i + 1] = t.normal_first[i + 1] + uint32_t(i + 1);
     for (const auto& [m, a] : lists[i]) {
       t.normal.push_back(m);
       t.normal_area.push_back(a);
+      t.slot_area.push_back(a);
     }
+    t.slot_area.push_back(rest[i]);
   }
   t.rest_area = std::move(rest);
+  // Every chart's slot in each cluster above it, nearest first: its entry while it has one, the
+  // remainder once cut from a list (a remainder stays one all the way up).
+  t.chart_slot_first.assign(charts.size() + 1, 0);
+  t.chart_slot.clear();
+  for (size_t c = 0; c < charts.size(); ++c) {
+    int32_t entry = chart_entry[c];
+    for (int32_t k = t.chart_parent[c]; k >= 0; k = t.clusters[size_t(k)].parent) {
+      const uint32_t kept = t.normal_first[size_t(k) + 1] - t.normal_first[size_t(k)];
+      t.chart_slot.push_back(t.slot_first[size_t(k)] + (entry >= 0 ? uint32_t(entry) : kept));
+      entry = entry >= 0 && t.clusters[size_t(k)].parent >= 0 ? up[size_t(k)][size_t(entry)] : -1;
+    }
+    t.chart_slot_first[c + 1] = uint32_t(t.chart_slot.size());
+  }
 }
 
 }  // namespace
@@ -231,6 +288,15 @@ ClusterTree build_clusters(const std::vector<Chart>& charts, bool oriented) {
   measure_clusters(t, charts, boxes);
   if (oriented && !t.clusters.empty()) orient_clusters(t, charts);
   return t;
+}
+
+void mark_emitters(ClusterTree& tree, const std::vector<uint8_t>& chart_emits) {
+  tree.emitting.assign(tree.size(), 0);
+  for (size_t i = tree.size(); i-- > 0;)
+    for (int k = 0; k < 2; ++k) {
+      const int32_t ch = tree.clusters[i].child[k];
+      tree.emitting[i] |= ch >= 0 ? tree.emitting[size_t(ch)] : chart_emits[size_t(~ch)];
+    }
 }
 
 double isotropic_point_factor(const Vec3& x, const Vec3& n, const Vec3& centre,

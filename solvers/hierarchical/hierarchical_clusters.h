@@ -59,6 +59,16 @@ struct ClusterTree {
   std::vector<uint32_t> normal_first;
   std::vector<Vec3> normal;
   std::vector<double> normal_area, rest_area;
+  // Oriented clusters' slots: cluster c's kept normals then its remainder are the slots
+  // [slot_first[c], slot_first[c+1]) (slot_first[c] = normal_first[c] + c), slot_area their
+  // charts' areas. Every chart's slot in each cluster above it, nearest first:
+  // chart_slot[chart_slot_first[chart] .. chart_slot_first[chart+1]) (a chart cut into a
+  // remainder stays in the remainders above). Per-orientation push and pull use them
+  // (hierarchical_hierarchy.h).
+  std::vector<uint32_t> slot_first, chart_slot_first, chart_slot;
+  std::vector<double> slot_area;
+  // Per cluster: whether a chart below it emits (mark_emitters; empty: not marked).
+  std::vector<uint8_t> emitting;
 
   size_t size() const { return clusters.size(); }
   bool oriented() const { return !normal_first.empty(); }
@@ -67,6 +77,9 @@ struct ClusterTree {
   // Cluster c's projected area in the unit direction w: P(w) above when oriented, A/4 when
   // isotropic.
   double projected_area(uint32_t c, const Vec3& w) const;
+  // Slot `slot` of cluster c's part of projected_area(c, w): A_k max(n_k . w, 0) for a kept
+  // normal, A_rest / 4 for the remainder. Oriented only.
+  double slot_projected_area(uint32_t c, uint32_t slot, const Vec3& w) const;
   // An upper bound of the polygons' exact projected area over every direction within angle
   // `spread` (radians) of the unit direction w: sum_k A_k cos(max(θ_k - spread, 0)) over the kept
   // normals (0 past 90°) plus the whole remainder's area (its normals are not kept). Oriented
@@ -85,6 +98,9 @@ struct ClusterTree {
 // The cluster tree over every chart (empty for fewer than two charts); `oriented` adds the
 // normal lists of oriented clusters.
 ClusterTree build_clusters(const std::vector<Chart>& charts, bool oriented = false);
+
+// Marks every cluster holding an emitting chart (chart_emits: per chart), children first.
+void mark_emitters(ClusterTree& tree, const std::vector<uint8_t>& chart_emits);
 
 // The isotropic kernel from a point to a cluster of area `source_area` at `centre`, seen from a
 // surface of normal `n` at x: A max(cos, 0) / (4 π r²). Zero at r = 0.

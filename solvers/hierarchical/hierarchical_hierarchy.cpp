@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <glm/common.hpp>
+#include <glm/geometric.hpp>
 #include <unordered_set>
 
 namespace radlab::hier {
@@ -32,7 +33,11 @@ size_t Hierarchy::memory_bytes() const {
                           sizeof(NodeKey) + sizeof(uint32_t) + 2 * sizeof(void*);
   return size() * (per_node + sizeof(double)) + clusters * sizeof(Vec3) +
          (send_scale.size() + S.size()) * sizeof(double) +
-         source.size() * (sizeof(uint32_t) + sizeof(double) + sizeof(uint8_t));
+         source.size() * (sizeof(uint32_t) + sizeof(double) + sizeof(uint8_t)) +
+         (slot_sent.size() + slot_gathered.size() + slot_emission.size()) * sizeof(double) +
+         node_centre.size() * sizeof(Vec3) + leaf_link_first.size() * sizeof(uint64_t) +
+         leaf_link_entry.size() * (sizeof(uint32_t) + sizeof(double)) +
+         link_value.size() * sizeof(double);
 }
 
 Hierarchy build_hierarchy(const std::vector<Chart>& charts, const std::vector<LinkRecord>& links,
@@ -169,7 +174,136 @@ Hierarchy build_hierarchy(const std::vector<Chart>& charts, const std::vector<Li
 
 namespace {
 
+// The unit vector along d; zero for d = 0 (coincident centres: no slot faces anywhere, so the
+// slots' area average and equal shares are used).
+Vec3 unit(const Vec3& d) {
+  const double length = std::sqrt(glm::dot(d, d));
+  return length > 0.0 ? d / length : Vec3(0.0);
+}
+
+// Per slot, the area average of its charts' roots' `values` (channel-major per node); the same
+// sums in chart order whatever the threads.
+void pull_slots(const Hierarchy& h, const std::vector<double>& values, std::vector<double>& out) {
+  const ClusterTree& t = *h.cluster_tree;
+  const size_t S = t.slot_area.size(), n = h.size(), charts = h.chart_first.size() - 1;
+  out.assign(size_t(h.channels) * S, 0.0);
+  std::vector<double> weight(S, 0.0);
+  for (size_t c = 0; c < charts; ++c) {
+    const size_t root = h.chart_first[c];
+    const double a = h.area[root];
+    for (uint32_t k = t.chart_slot_first[c]; k < t.chart_slot_first[c + 1]; ++k) {
+      const size_t slot = t.chart_slot[k];
+      weight[slot] += a;
+      for (int ch = 0; ch < h.channels; ++ch)
+        out[size_t(ch) * S + slot] += a * values[size_t(ch) * n + root];
+    }
+  }
+  for (size_t slot = 0; slot < S; ++slot)
+    for (int ch = 0; ch < h.channels; ++ch)
+      out[size_t(ch) * S + slot] =
+          weight[slot] > 0.0 ? out[size_t(ch) * S + slot] / weight[slot] : 0.0;
+}
+
+// Gathers with per-orientation pull and push (Hierarchy::slots): a cluster source is read
+// toward the receiver, a cluster receiver shares each link's light among its slots.
+void gather_slotted(Hierarchy& h, size_t begin, size_t end) {
+  const size_t n = h.size();
+  const ClusterTree& t = *h.cluster_tree;
+  const size_t S = t.slot_area.size();
+  const size_t E = h.first[h.clusters];  // the CSR entries of the clusters' links
+  const std::vector<double>& sent = h.sent();
+  auto gather = [&](size_t i) {
+    const bool cluster = i < h.clusters;
+    if (!cluster) {
+      // A node: its links from nodes channel by channel, as gather_range does (the bulk of the
+      // work), then those from clusters, read toward it, then its clusters' links by its own
+      // rule.
+      double sum[3] = {0.0, 0.0, 0.0};
+      for (int c = 0; c < h.channels; ++c) {
+        const double* B = sent.data() + size_t(c) * n;
+        double acc = 0.0;
+        for (uint64_t k = h.first[i]; k < h.first[i + 1]; ++k)
+          if (h.source[k] >= h.clusters) acc += h.factor[k] * B[h.source[k]];
+        sum[c] = acc;
+      }
+      for (uint64_t k = h.first[i]; k < h.first[i + 1]; ++k) {
+        const uint32_t s = h.source[k];
+        if (s >= h.clusters) continue;
+        double value[3] = {0.0, 0.0, 0.0};
+        slot_directional(h, h.slot_sent, s, unit(h.node_centre[i] - h.node_centre[s]), value);
+        for (int c = 0; c < h.channels; ++c) sum[c] += h.factor[k] * value[c];
+      }
+      if (h.leaf_rule())
+        for (uint64_t k = h.leaf_link_first[i]; k < h.leaf_link_first[i + 1]; ++k)
+          for (int c = 0; c < h.channels; ++c)
+            sum[c] += h.leaf_link_factor[k] * h.link_value[size_t(c) * E + h.leaf_link_entry[k]];
+      for (int c = 0; c < h.channels; ++c) h.gathered[size_t(c) * n + i] = sum[c];
+      return;
+    }
+    const bool push = cluster && !h.leaf_rule();
+    const uint32_t s0 = push ? t.slot_first[i] : 0, s1 = push ? t.slot_first[i + 1] : 0;
+    for (int c = 0; c < h.channels; ++c)
+      for (uint32_t j = s0; j < s1; ++j) h.slot_gathered[size_t(c) * S + j] = 0.0;
+    double sum[3] = {0.0, 0.0, 0.0};
+    for (uint64_t k = h.first[i]; k < h.first[i + 1]; ++k) {
+      const uint32_t s = h.source[k];
+      double value[3] = {0.0, 0.0, 0.0};
+      if (s < h.clusters)
+        slot_directional(h, h.slot_sent, s, unit(h.node_centre[i] - h.node_centre[s]), value);
+      else
+        for (int c = 0; c < h.channels; ++c) value[c] = sent[size_t(c) * n + s];
+      if (cluster && h.leaf_rule()) {
+        // What this link carries, read by the leaves below with their own factors.
+        for (int c = 0; c < h.channels; ++c) h.link_value[size_t(c) * E + k] = value[c];
+        continue;
+      }
+      for (int c = 0; c < h.channels; ++c) sum[c] += h.factor[k] * value[c];
+      if (!push) continue;
+      // slot_share for every slot, the cluster's projected area taken once.
+      const Vec3 u = unit(h.node_centre[s] - h.node_centre[i]);
+      const double projected = t.projected_area(uint32_t(i), u);
+      const double scale = projected > 0.0 ? t.clusters[i].area / projected : 0.0;
+      for (uint32_t j = s0; j < s1; ++j) {
+        const double area = t.slot_area[j];
+        const double share = !(projected > 0.0) ? 1.0
+                             : area > 0.0 ? t.slot_projected_area(uint32_t(i), j, u) / area * scale
+                                          : 0.0;
+        const double f = h.factor[k] * share;
+        for (int c = 0; c < h.channels; ++c) h.slot_gathered[size_t(c) * S + j] += f * value[c];
+      }
+    }
+    for (int c = 0; c < h.channels; ++c) h.gathered[size_t(c) * n + i] = sum[c];
+  };
+  // The clusters first: their links' values are what the leaves read.
+  const size_t mid = std::clamp(h.clusters, begin, end);
+  for (const auto& [from, to] : {std::pair{begin, mid}, std::pair{mid, end}})
+    tbb::parallel_for(tbb::blocked_range<size_t>(from, to, 256),
+                      [&](const tbb::blocked_range<size_t>& r) {
+                        for (size_t i = r.begin(); i < r.end(); ++i) gather(i);
+                      });
+}
+
+// Per chart, what its clusters pass down to its root through its own slots (3 per chart).
+std::vector<double> slot_down(const Hierarchy& h) {
+  const ClusterTree& t = *h.cluster_tree;
+  const size_t S = t.slot_area.size(), charts = h.chart_first.size() - 1;
+  std::vector<double> down(3 * charts, 0.0);
+  if (h.leaf_rule()) return down;  // the leaves gathered the clusters' links themselves
+  tbb::parallel_for(
+      tbb::blocked_range<size_t>(0, charts, 256), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t c = r.begin(); c < r.end(); ++c)
+          for (uint32_t k = t.chart_slot_first[c]; k < t.chart_slot_first[c + 1]; ++k)
+            for (int ch = 0; ch < h.channels; ++ch)
+              down[3 * c + size_t(ch)] += h.slot_gathered[size_t(ch) * S + t.chart_slot[k]];
+      });
+  return down;
+}
+
 void gather_range(Hierarchy& h, size_t begin, size_t end) {
+  if (h.slots) {
+    gather_slotted(h, begin, end);
+    return;
+  }
   const size_t n = h.size();
   tbb::parallel_for(tbb::blocked_range<size_t>(begin, end, 256),
                     [&](const tbb::blocked_range<size_t>& r) {
@@ -237,9 +371,15 @@ void pull_clusters(const Hierarchy& h, std::vector<double>& out) {
   }
 }
 
+// What clusters pass down: per cluster (cluster_down), or per chart through its slots.
+std::vector<double> clusters_down(const Hierarchy& h) {
+  return h.slots ? slot_down(h) : cluster_down(h);
+}
+
 // The light chart c's root receives from above: nothing without clusters.
 const double* chart_down(const Hierarchy& h, const std::vector<double>& down, size_t chart) {
   static const double zero[3] = {0.0, 0.0, 0.0};
+  if (h.slots) return down.data() + 3 * chart;
   const int32_t parent = h.parent[h.chart_first[chart]];
   return parent >= 0 ? down.data() + 3 * size_t(parent) : zero;
 }
@@ -269,12 +409,59 @@ void refresh_sent(Hierarchy& h, size_t begin, size_t end) {
     }
 }
 
+void enable_orientation_slots(Hierarchy& h, const std::vector<Chart>& charts) {
+  if (!h.cluster_tree || !h.cluster_tree->oriented() || h.balanced()) return;
+  h.slots = true;
+  const size_t S = h.cluster_tree->slot_area.size(), n = h.size();
+  h.slot_sent.assign(size_t(h.channels) * S, 0.0);
+  h.slot_gathered.assign(size_t(h.channels) * S, 0.0);
+  h.node_centre.resize(n);
+  for (size_t c = 0; c < h.clusters; ++c) h.node_centre[c] = h.cluster_centre[c];
+  tbb::parallel_for(tbb::blocked_range<size_t>(h.clusters, n, 512),
+                    [&](const tbb::blocked_range<size_t>& r) {
+                      for (size_t i = r.begin(); i < r.end(); ++i)
+                        h.node_centre[i] = node_geometry(charts, h.key[i]).centre;
+                    });
+  pull_slots(h, h.emission, h.slot_emission);
+}
+
+void slot_directional(const Hierarchy& h, const std::vector<double>& slot_values, uint32_t cluster,
+                      const Vec3& w, double* out) {
+  const ClusterTree& t = *h.cluster_tree;
+  const size_t S = t.slot_area.size();
+  double sum[3] = {0.0, 0.0, 0.0}, weight = 0.0;
+  for (uint32_t j = t.slot_first[cluster]; j < t.slot_first[cluster + 1]; ++j) {
+    const double b = t.slot_projected_area(cluster, j, w);
+    weight += b;
+    for (int c = 0; c < h.channels; ++c) sum[c] += b * slot_values[size_t(c) * S + j];
+  }
+  if (!(weight > 0.0)) {
+    // No slot faces w (the link's factor is 0 then): the area average.
+    for (uint32_t j = t.slot_first[cluster]; j < t.slot_first[cluster + 1]; ++j) {
+      weight += t.slot_area[j];
+      for (int c = 0; c < h.channels; ++c)
+        sum[c] += t.slot_area[j] * slot_values[size_t(c) * S + j];
+    }
+  }
+  for (int c = 0; c < h.channels; ++c) out[c] = weight > 0.0 ? sum[c] / weight : 0.0;
+}
+
+double slot_share(const Hierarchy& h, uint32_t cluster, uint32_t slot, const Vec3& u) {
+  const ClusterTree& t = *h.cluster_tree;
+  const double projected = t.projected_area(cluster, u);
+  if (!(projected > 0.0)) return 1.0;
+  const double area = t.slot_area[slot];
+  if (!(area > 0.0)) return 0.0;
+  return t.slot_projected_area(cluster, slot, u) / area * (t.clusters[cluster].area / projected);
+}
+
 double jacobi_pass(Hierarchy& h) {
+  if (h.slots) pull_slots(h, h.sent(), h.slot_sent);
   gather_range(h, 0, h.size());
   std::vector<double> next(h.B.size());
   const size_t charts = h.chart_first.size() - 1;
   std::vector<double> change(charts, 0.0);
-  const std::vector<double> down = cluster_down(h);
+  const std::vector<double> down = clusters_down(h);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, charts, 16),
                     [&](const tbb::blocked_range<size_t>& r) {
                       for (size_t c = r.begin(); c < r.end(); ++c)
@@ -290,9 +477,10 @@ double gauss_seidel_pass(Hierarchy& h) {
   const size_t charts = h.chart_first.size() - 1;
   double change = 0.0;
   std::vector<double> next = h.B;
+  if (h.slots) pull_slots(h, h.sent(), h.slot_sent);
   // The clusters gather first, from the B of the previous pass (one block of the sweep).
   if (h.clusters > 0) gather_range(h, 0, h.clusters);
-  const std::vector<double> down = cluster_down(h);
+  const std::vector<double> down = clusters_down(h);
   for (size_t c = 0; c < charts; ++c) {
     gather_range(h, h.chart_first[c], h.chart_first[c + 1]);
     change = std::max(change, push_pull(h, h.chart_first[c], chart_down(h, down, c), next));

@@ -8,7 +8,7 @@
 // cluster its two children (clusters or chart roots). A cluster gathers like any node; what it
 // gathers is pushed down to all its charts (Sillion 1995's isotropic push: the same irradiance for
 // every member), and its B is the area average of its children's (pull), which is what its links
-// send.
+// send. Oriented clusters push and pull per orientation instead (Hierarchy::slots below).
 //
 // Nodes are numbered in depth-first key order (hierarchical_tree.h), charts contiguous, so the
 // same links give the same numbering, sums in the same order, and the same bits on any number of
@@ -56,6 +56,30 @@ struct Hierarchy {
   // S = E + t (B - E) at leaves and area averages above (channel-major). Both empty otherwise:
   // the links read B itself.
   std::vector<double> send_scale, S;
+  // Per-orientation push and pull through oriented clusters (enable_orientation_slots; all
+  // empty otherwise). A cluster's slots (hierarchical_clusters.h: one per kept normal, one for
+  // the remainder) each hold the area average of their charts' sent light (slot_sent, pulled
+  // before every gather; slot_emission likewise for E), and what the cluster gathers is shared
+  // among its slots in proportion to their projected area toward each link's source
+  // (slot_gathered, per unit area), then pushed to each chart through its own slot: a face of
+  // the cluster turned away from a source gets none of its light. A link from a cluster source
+  // reads its slots weighted by their projected areas toward the receiver (the light the
+  // cluster's faces send that way), not the cluster's area average. Channel-major over slots.
+  bool slots = false;
+  std::vector<double> slot_sent, slot_gathered, slot_emission;
+  std::vector<Vec3> node_centre;  // per node (slots only): a cluster's centre, a node's centroid
+  // With row normalisation (normalise_rows fills them; hierarchical_rows.h) every leaf gathers
+  // the links at the clusters on its path itself, each by the leaf's own rule (its 2 x 2
+  // points' kernel, V included: the per-element evaluation of Smits, Arvo & Greenberg 1994's
+  // beta links), and the clusters push nothing: leaf i's links are the CSR entries
+  // leaf_link_entry[leaf_link_first[i] .. leaf_link_first[i+1]) with the leaf's factors
+  // leaf_link_factor; each pass a cluster's gather stores what each of its links carries (the
+  // source's light toward the cluster) in link_value (channel-major over the clusters' CSR
+  // entries, first[clusters] per channel). Empty (rows=links): the slots' push above.
+  std::vector<uint64_t> leaf_link_first;
+  std::vector<uint32_t> leaf_link_entry;
+  std::vector<double> leaf_link_factor, link_value;
+  bool leaf_rule() const { return !leaf_link_first.empty(); }
   size_t leaves = 0;
   size_t clusters = 0;                        // nodes [0, clusters) are clusters
   std::vector<Vec3> cluster_centre;           // per cluster
@@ -82,6 +106,22 @@ Hierarchy build_hierarchy(const std::vector<Chart>& charts, const std::vector<Li
                           const Hierarchy* previous, const std::vector<Rgb>& chart_emission,
                           const std::vector<Rgb>& chart_reflectance, int channels,
                           const ClusterTree* clusters = nullptr);
+
+// Turns on the per-orientation push and pull (above) for a hierarchy with oriented clusters;
+// `charts` gives the nodes' centres. Without column balance only (rows=balanced scales the
+// area-average push/pull).
+void enable_orientation_slots(Hierarchy& h, const std::vector<Chart>& charts);
+// The light cluster `cluster` sends in the unit direction w, per unit of its projected area
+// that way (out: one value per channel): its slots' values (`slot_values`) weighted by their
+// projected areas toward w; the slots' area average where none faces w.
+void slot_directional(const Hierarchy& h, const std::vector<double>& slot_values, uint32_t cluster,
+                      const Vec3& w, double* out);
+// The factor on a link to cluster `cluster` (from the unit direction u towards its source) that
+// its slot `slot` receives per unit area, per unit of the link's factor: the slot's projected
+// area toward u over its area, over the cluster's projected area toward u over the cluster's
+// area (so the slots' area-weighted shares sum to 1: power is conserved). 1 where the cluster
+// shows nothing toward u.
+double slot_share(const Hierarchy& h, uint32_t cluster, uint32_t slot, const Vec3& u);
 
 // Recomputes S from B and send_scale for nodes [begin, end) (children after their parents in
 // index order, so a descending sweep sees every child first). No-op without column balance.

@@ -1,5 +1,7 @@
 #include "solvers/hierarchical/hierarchical_refine.h"
 
+#include <tbb/parallel_invoke.h>
+
 #include <algorithm>
 #include <cmath>
 #include <glm/geometric.hpp>
@@ -329,19 +331,39 @@ bool Refiner::open_q(const Node& p, const Node& q, double e_pq, double e_qp) con
   return e_pq >= e_qp;
 }
 
+uint32_t Refiner::chart_count(const Node& n) const {
+  return n.key.is_cluster() ? clusters_->clusters[n.key.chart].count : 1u;
+}
+
 void Refiner::open(const Node& p, const Node& q, bool open_q_side, Known known,
                    std::vector<LinkRecord>& out, RefineStats& stats) const {
   // open_q() names the cluster end whenever there is one, so `s` is a cluster.
   const Node& s = open_q_side ? q : p;
   const Cluster& c = clusters_->clusters[s.key.chart];
-  for (int k = 0; k < 2; ++k) {
-    const Node child = node_of(c.child[k] >= 0 ? NodeKey::cluster(uint32_t(c.child[k]))
-                                               : NodeKey{uint32_t(~c.child[k]), 0, 0});
+  Node child[2];
+  for (int k = 0; k < 2; ++k)
+    child[k] = node_of(c.child[k] >= 0 ? NodeKey::cluster(uint32_t(c.child[k]))
+                                       : NodeKey{uint32_t(~c.child[k]), 0, 0});
+  auto refine_child = [&](int k, std::vector<LinkRecord>& into, RefineStats& st) {
     if (open_q_side)
-      refine_any(p, child, known, out, stats);
+      refine_any(p, child[k], known, into, st);
     else
-      refine_any(child, q, known, out, stats);
+      refine_any(child[k], q, known, into, st);
+  };
+  if (uint64_t(chart_count(p)) * chart_count(q) < kParallelOpen) {
+    refine_child(0, out, stats);
+    refine_child(1, out, stats);
+    return;
   }
+  // A large pair: its two halves as two tasks (the root cluster's pair of children alone was a
+  // third of hosp.mgf's refinement, on one thread). The second half's links go to their own list,
+  // appended after the first's: the same links in the same order as one thread makes them.
+  std::vector<LinkRecord> second;
+  RefineStats second_stats;
+  tbb::parallel_invoke([&] { refine_child(0, out, stats); },
+                       [&] { refine_child(1, second, second_stats); });
+  out.insert(out.end(), second.begin(), second.end());
+  stats.add(second_stats);
 }
 
 void Refiner::refine_clustered(const Node& p, const Node& q, Known known,
@@ -396,6 +418,15 @@ void Refiner::refine_clustered(const Node& p, const Node& q, Known known,
       clusters_->oriented() ? kPartialPenalty * e_max : e_max / double(facing + 2);
   if (free == 0 && blocked_bound < c_.feps) {
     ++(facing > 0 ? stats.occluded : stats.facing_away);
+    return;
+  }
+  // A cluster holding a lamp is opened until the lamp is a surface of its own (oriented): as a
+  // cluster's light its emission would be spread over the cluster's faces and sent from its
+  // centre, moving the direct light, which refinement on F alone does not see.
+  const bool p_emits = pc && !clusters_->emitting.empty() && clusters_->emitting[p.key.chart];
+  const bool q_emits = qc && !clusters_->emitting.empty() && clusters_->emitting[q.key.chart];
+  if (p_emits || q_emits) {
+    open(p, q, q_emits && (!p_emits || radius(q) >= radius(p)), Known::kUnknown, out, stats);
     return;
   }
   if (std::max(e_pq, e_qp) >= c_.feps) {

@@ -91,6 +91,11 @@ struct RefineStats {
   void add(const RefineStats& o);
 };
 
+// A cluster pair opened with at least this many pairs of charts below it refines its two halves
+// as parallel tasks (the same links in the same order; the threshold only bounds the tasks'
+// overhead against their work).
+inline constexpr uint64_t kParallelOpen = 4096;
+
 // The partially visible pairs' error multiplier.
 inline constexpr double kPartialPenalty = 4.0;
 
@@ -157,6 +162,8 @@ class Refiner {
   bool open_q(const Node& p, const Node& q, double e_pq, double e_qp) const;
   void open(const Node& p, const Node& q, bool open_q, Known known, std::vector<LinkRecord>& out,
             RefineStats& stats) const;
+  // Charts under a node: a cluster's count, 1 for a quadtree node.
+  uint32_t chart_count(const Node& n) const;
   Vec3 centre(const Node& n) const;
   double radius(const Node& n) const;
   double node_area(const Node& n) const;

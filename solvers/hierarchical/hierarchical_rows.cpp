@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <glm/geometric.hpp>
 #include <span>
 
 #include "formfactor/integrate/point_polygon.h"
@@ -22,6 +23,9 @@ struct LeafRow {
   double gathered_emission[3] = {0.0, 0.0, 0.0};
   double point_emission[3] = {0.0, 0.0, 0.0}, other_emission[3] = {0.0, 0.0, 0.0};
   double point_source_side = 0.0, point_leaf_side = 0.0;
+  // With oriented clusters: the links at clusters on the leaf's path, as (CSR entry, the leaf's
+  // own factor), in path order.
+  std::vector<std::pair<uint32_t, double>> own_links;
 };
 
 // Sum over a node's 2 x 2 rule (its children's centres, area weighted) of the point-to-polygon
@@ -53,6 +57,13 @@ double rule_to_polygon(const Chart& from_chart, const NodeGeometry& from, const 
   return sum;
 }
 
+// The unit vector along d; zero for d = 0 (slot_share and slot_directional then fall back to
+// the cluster's area average).
+Vec3 unit(const Vec3& d) {
+  const double length = std::sqrt(glm::dot(d, d));
+  return length > 0.0 ? d / length : Vec3(0.0);
+}
+
 // S_L and T_L of leaf i (geometry of every node in `geom`).
 LeafRow leaf_row(const Hierarchy& h, const std::vector<Chart>& charts,
                  const std::vector<NodeGeometry>& geom, size_t i, std::vector<Vec3>& scratch) {
@@ -74,8 +85,11 @@ LeafRow leaf_row(const Hierarchy& h, const std::vector<Chart>& charts,
   double value[4];
   const size_t n = h.size();
   for (int64_t a = int64_t(i); a >= 0; a = h.parent[size_t(a)]) {
+    // With oriented clusters (Hierarchy::slots) the leaf gathers the links at the clusters on
+    // its path itself, by its own rule (Hierarchy::leaf_link_*): their leaf-side values are both
+    // what it gathers and its row's part.
+    const bool own = h.slots && size_t(a) < h.clusters;
     for (uint64_t k = h.first[size_t(a)]; k < h.first[size_t(a) + 1]; ++k) {
-      r.link_sum += h.factor[k];
       const size_t s = h.source[k];
       const double v = double(h.free_rays[k]) / kVisibilityRays;
       double leaf_side = h.factor[k];  // the leaf's own links: their factor is this rule already
@@ -108,12 +122,22 @@ LeafRow leaf_row(const Hierarchy& h, const std::vector<Chart>& charts,
         leaf_side = v * sum;
         ++r.evaluations;
       }
+      const double factor = own ? leaf_side : h.factor[k];
+      r.link_sum += factor;
+      if (own) r.own_links.emplace_back(uint32_t(k), leaf_side);
       r.row += leaf_side;
+      // The source's emission as the gather reads it: a cluster with slots toward the link's
+      // receiver.
+      double emission[3] = {0.0, 0.0, 0.0};
+      if (h.slots && s < h.clusters)
+        slot_directional(h, h.slot_emission, uint32_t(s),
+                         unit(h.node_centre[size_t(a)] - h.node_centre[s]), emission);
+      else
+        for (int c = 0; c < h.channels; ++c) emission[c] = h.emission[size_t(c) * n + s];
       bool emits = false;
       for (int c = 0; c < h.channels; ++c) {
-        const double e = h.emission[size_t(c) * n + s];
-        r.gathered_emission[c] += h.factor[k] * e;
-        emits = emits || e > 0.0;
+        r.gathered_emission[c] += factor * emission[c];
+        emits = emits || emission[c] > 0.0;
       }
       if (!emits) continue;
       if (s >= h.clusters && geom[s].area < geom[i].area) {
@@ -127,11 +151,9 @@ LeafRow leaf_row(const Hierarchy& h, const std::vector<Chart>& charts,
         ++r.evaluations;
         r.point_source_side += source_side;
         r.point_leaf_side += leaf_side;
-        for (int c = 0; c < h.channels; ++c)
-          r.point_emission[c] += source_side * h.emission[size_t(c) * n + s];
+        for (int c = 0; c < h.channels; ++c) r.point_emission[c] += source_side * emission[c];
       } else {
-        for (int c = 0; c < h.channels; ++c)
-          r.other_emission[c] += leaf_side * h.emission[size_t(c) * n + s];
+        for (int c = 0; c < h.channels; ++c) r.other_emission[c] += leaf_side * emission[c];
       }
     }
   }
@@ -266,6 +288,23 @@ RowStats normalise_rows(Hierarchy& h, const std::vector<Chart>& charts, bool bal
     for (size_t i = r.begin(); i < r.end(); ++i)
       if (h.is_leaf(i)) rows[i] = leaf_row(h, charts, geom, i, scratch);
   });
+  if (h.slots) {
+    // The leaves' own gathers of their clusters' links (Hierarchy::leaf_link_*), in node order.
+    h.leaf_link_first.assign(n + 1, 0);
+    for (size_t i = 0; i < n; ++i)
+      h.leaf_link_first[i + 1] = h.leaf_link_first[i] + rows[i].own_links.size();
+    h.leaf_link_entry.resize(h.leaf_link_first[n]);
+    h.leaf_link_factor.resize(h.leaf_link_first[n]);
+    h.link_value.assign(size_t(h.channels) * h.first[h.clusters], 0.0);
+    for (size_t i = 0; i < n; ++i) {
+      uint64_t at = h.leaf_link_first[i];
+      for (const auto& [entry, factor] : rows[i].own_links) {
+        h.leaf_link_entry[at] = entry;
+        h.leaf_link_factor[at++] = factor;
+      }
+      std::vector<std::pair<uint32_t, double>>().swap(rows[i].own_links);
+    }
+  }
   RowStats stats;
   stats.min_link_sum = 1e300;
   std::vector<double> target(n, 0.0);

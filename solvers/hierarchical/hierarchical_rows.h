@@ -45,7 +45,11 @@
 // Clusters: a leaf's path runs on through its chart's clusters; a link from a cluster source is
 // evaluated at the leaf's four points by the isotropic kernel (hierarchical_clusters.h), and its
 // emitted light is received by that value, not as point-like. T_L is then that rule's row sum of
-// the clustered operator, no longer exactly 1 in a closed box where cluster links remain.
+// the clustered operator, no longer exactly 1 in a closed box where cluster links remain. With
+// the per-orientation push (Hierarchy::slots) a link at a cluster on the leaf's path counts in
+// S_L by its factor times the leaf's slot share (what the push gives the leaf), and a cluster
+// source's emission is read toward the link's receiver, as the gathers read it. The column sums
+// reported (RowStats) follow the area-average push and pull even then.
 //
 // Cost: one 2 x 2 evaluation (4 point-to-polygon values, batched) per leaf and link on its
 // path above it, and one more per (leaf, emitting link) whose source is smaller than the leaf; no

@@ -22,6 +22,10 @@
 #include "scene/mesh.h"
 #include "scene/validate.h"
 #include "solvers/hierarchical/hierarchical_clusters.h"
+#include "solvers/hierarchical/hierarchical_hierarchy.h"
+#include "solvers/hierarchical/hierarchical_refine.h"
+#include "solvers/hierarchical/hierarchical_rows.h"
+#include "solvers/hierarchical/hierarchical_visibility.h"
 #include "solvers/registry.h"
 #include "tests/hierarchical_support.h"
 #include "tests/test_support.h"
@@ -207,28 +211,30 @@ TEST(HierarchicalClusters, ConvergesToTheCertifiedReferenceLikeUnclustered) {
   }
 }
 
-TEST(HierarchicalClusters, OrientedClustersMatchTheReflectedLightOfUnclustered) {
+TEST(HierarchicalClusters, OrientedClustersAreNoWorseThanUnclustered) {
   // The building's reflected light (rms_rel_reflected, the room's light without the lamps)
-  // at feps 0.04, where cluster links carry much of it: isotropic clusters darken every
-  // orientation by 2-4% (0.0381 against 0.0291 unclustered): their A/4 bound links face-on
-  // cluster pairs whose F is up to 4x feps, and Laplace's rule drops blocked cluster pairs that
-  // carry light. Oriented clusters (the polygons' projected areas bounded over the cone, blocked
-  // pairs opened as partly visible ones) are within 2% of unclustered (0.0295). Asserted:
-  // oriented within 1.1x of unclustered (room for the different link pattern); isotropic fails
-  // it (1.31x). A wrong projected area is caught by OrientedProjectedAreaIsThePolygonsOwn.
-  auto s = testing::hierarchical_setup("floors:k=2,patch=2", 2);
-  double rms[2];
-  for (int oriented : {0, 1}) {
-    auto solver = make({"feps=0.04", oriented ? "clustering=oriented" : "clustering=none"});
-    solver->init(*s->system);
-    run_to_end(*solver, 2000);
-    rms[oriented] = compare_reflected(solver->solution(), s->reference.B, s->system->emission(),
-                                      s->system->area(), kMeanOfChannels)
-                        .rms_rel;
+  // at feps 0.04, where cluster links carry much of it, against the certified reference: issue
+  // 33's target is the clustered error no worse than the unclustered at the same feps, asserted
+  // as it stands (measured: floors k=2 0.0280 against 0.0291, k=4 0.0224 against 0.0229).
+  // Isotropic clusters fail it (k=2 0.0381: the A/4 bound and Laplace's rule for blocked
+  // pairs), and so did oriented ones while a cluster's light was pushed to its faces alike and
+  // pulled as their area average, and lamps could sit inside linked clusters (k=2 0.0295, k=4
+  // 0.0273; either fix alone: k=2 0.0309 and 0.0318).
+  for (const auto& [spec, subdiv] :
+       {std::pair{"floors:k=2,patch=2", 2}, std::pair{"floors:k=4,patch=2", 1}}) {
+    auto s = testing::hierarchical_setup(spec, subdiv);
+    double rms[2];
+    for (int oriented : {0, 1}) {
+      auto solver = make({"feps=0.04", oriented ? "clustering=oriented" : "clustering=none"});
+      solver->init(*s->system);
+      run_to_end(*solver, 2000);
+      rms[oriented] = compare_reflected(solver->solution(), s->reference.B, s->system->emission(),
+                                        s->system->area(), kMeanOfChannels)
+                          .rms_rel;
+    }
+    std::printf("%s feps 0.04: rms_rel_reflected none %.4g, oriented %.4g\n", spec, rms[0], rms[1]);
+    EXPECT_LE(rms[1], rms[0]) << spec;
   }
-  std::printf("floors:k=2,patch=2 feps 0.04: rms_rel_reflected none %.4g, oriented %.4g\n", rms[0],
-              rms[1]);
-  EXPECT_LT(rms[1], 1.1 * rms[0]);
 }
 
 // A square chart of side `side` centred at `centre` facing `normal` (an axis).
@@ -316,6 +322,155 @@ TEST(HierarchicalClusters, OrientedBoundHoldsAndPastTheListTheRestIsIsotropic) {
       EXPECT_GE(bound, exact_projected(charts, v) * (1 - 1e-12)) << trial;
     }
   }
+}
+
+// A slab (two back-to-back unit squares 2 cm apart, facing +z and -z) between two unit squares
+// 10 m above and below it facing it, linked as the oriented refinement links them: the slab's
+// cluster to each square's root, the factors of hierarchical_refine.h (the square gathers the
+// cluster's point kernel at its centre, the cluster the reciprocal). No row normalisation, so a
+// Jacobi pass shows the push and the pull themselves.
+struct Slab {
+  std::vector<Chart> charts;
+  ClusterTree tree;
+  uint32_t slab = 0;        // the cluster holding the two faces
+  double gather_factor[2];  // the cluster's factor from the square above [0] and below [1]
+  double analytic[2];       // a face's form factor to the square it faces
+  Hierarchy hierarchy(const std::vector<double>& emission, const std::vector<double>& rho) const {
+    std::vector<Rgb> e, r;
+    for (size_t c = 0; c < charts.size(); ++c) {
+      e.emplace_back(emission[c]);
+      r.emplace_back(rho[c]);
+    }
+    std::vector<LinkRecord> links;
+    for (uint32_t k : {2u, 3u}) {
+      LinkRecord l;
+      l.p = NodeKey::cluster(slab);
+      l.q = {k, 0, 0};
+      const Chart& square = charts[k];
+      l.fqp = tree.point_factor(slab, root_geometry(square).centre, square.normal);
+      l.fpq = l.fqp * square.area / tree.clusters[slab].area;
+      links.push_back(l);
+    }
+    return build_hierarchy(charts, links, nullptr, e, r, 1, &tree);
+  }
+};
+
+Slab make_slab() {
+  Slab s;
+  s.charts = {square({0, 0, 0.01}, {0, 0, 1}, 1.0), square({0, 0, -0.01}, {0, 0, -1}, 1.0),
+              square({0, 0, 10}, {0, 0, -1}, 1.0), square({0, 0, -10}, {0, 0, 1}, 1.0)};
+  s.tree = build_clusters(s.charts, true);
+  bool found = false;
+  for (uint32_t c = 0; c < s.tree.size(); ++c) {
+    const Cluster& cl = s.tree.clusters[c];
+    if (cl.count == 2 && cl.child[0] < 0 && cl.child[1] < 0 &&
+        (~cl.child[0]) + (~cl.child[1]) == 1) {
+      s.slab = c;
+      found = true;
+    }
+  }
+  EXPECT_TRUE(found) << "the BVH put the slab's two faces in one cluster";
+  for (int k : {0, 1}) {
+    const Chart& square = s.charts[size_t(2 + k)];
+    s.gather_factor[k] = s.tree.point_factor(s.slab, root_geometry(square).centre, square.normal) *
+                         square.area / s.tree.clusters[s.slab].area;
+    // Two coaxial unit squares 9.99 m apart: F = A cos cos / (π r²) to O((side / r)²), 1%.
+    s.analytic[k] = 1.0 / (std::numbers::pi * 9.99 * 9.99);
+  }
+  return s;
+}
+
+TEST(HierarchicalClusters, OrientedPushGivesEachFaceOnlyTheLightItFaces) {
+  // The squares above and below send B = 1 and 0.25 (emitters that reflect nothing); the slab's
+  // faces reflect everything (rho = 1), so after one Jacobi pass a face's B is what it received.
+  // The face turned up sees only the square above: its irradiance is that square's form factor
+  // times 1 (the analytic value, 1%), and the face turned down gets 0.25 times its own. The
+  // uniform push gave both faces the cluster's average, 0.5 (1 + 0.25) F: the lower face 2.5x
+  // too much, light leaking through the slab. Both ways of receiving are checked: the slots'
+  // push (rows=links), which also gives the faces exactly the power the cluster gathered, and
+  // the leaves' own rule with row normalisation (the default rows=leaf).
+  const Slab s = make_slab();
+  for (bool rows : {false, true}) {
+    Hierarchy h = s.hierarchy({0, 0, 1.0, 0.25}, {1.0, 1.0, 0.0, 0.0});
+    enable_orientation_slots(h, s.charts);
+    ASSERT_TRUE(h.slots);
+    if (rows) {
+      normalise_rows(h, s.charts);
+      ASSERT_TRUE(h.leaf_rule());
+    }
+    jacobi_pass(h);
+    const double up = h.b(0, h.chart_first[0]), down = h.b(0, h.chart_first[1]);
+    EXPECT_NEAR(up, 1.0 * s.analytic[0], 0.01 * s.analytic[0]) << "rows " << rows;
+    EXPECT_NEAR(down, 0.25 * s.analytic[1], 0.01 * 0.25 * s.analytic[1]) << "rows " << rows;
+    if (rows) continue;
+    // Power: what the cluster gathered (area times its factors times B) is what the faces got.
+    const double gathered =
+        s.tree.clusters[s.slab].area * (s.gather_factor[0] * 1.0 + s.gather_factor[1] * 0.25);
+    EXPECT_NEAR(up * s.charts[0].area + down * s.charts[1].area, gathered, 1e-12 * gathered);
+  }
+}
+
+TEST(HierarchicalClusters, OrientedRefinementLinksNoClusterHoldingALamp) {
+  // A lamp inside a linked cluster would send its emission spread over the cluster's faces from
+  // the cluster's centre, moving the direct light (refinement on F alone does not see it); such
+  // clusters are opened until the lamp is a surface of its own. The building's first pass, from
+  // the root cluster's frontier: no link has an emitting cluster end, while links with cluster
+  // ends remain. Without the marks the same refinement links emitting clusters (checked below,
+  // so the rule is what keeps them out).
+  Scene scene = make_builtin_scene("floors:k=2,patch=2");
+  validate_scene(scene);
+  const std::vector<Chart> charts = make_charts(scene);
+  std::vector<uint8_t> emits(charts.size(), 0);
+  for (size_t c = 0; c < charts.size(); ++c)
+    emits[c] = scene.materials[size_t(scene.polygons[charts[c].polygon].material)].emits();
+  const NodeVisibility visibility(scene);
+  RefineCriterion criterion;
+  criterion.feps = 0.04;
+  double total_area = 0.0;
+  for (const Chart& c : charts) total_area += c.area;
+  criterion.min_area = 1e-4 * total_area;  // the solver's default aeps
+  for (bool marked : {true, false}) {
+    ClusterTree tree = build_clusters(charts, true);
+    if (marked) mark_emitters(tree, emits);
+    // Which clusters hold a lamp, from the charts' ranges (independently of mark_emitters).
+    std::vector<uint8_t> lamp(tree.size(), 0);
+    for (size_t c = 0; c < tree.size(); ++c)
+      for (uint32_t k = tree.clusters[c].first; k < tree.clusters[c].first + tree.clusters[c].count;
+           ++k)
+        lamp[c] |= emits[tree.order[k]];
+    const Refiner refiner(charts, visibility, criterion, &tree);
+    std::vector<LinkRecord> links;
+    RefineStats stats;
+    for (const auto& [a, b] : Refiner::cluster_frontier(tree))
+      refiner.refine_keys(a, b, links, stats);
+    size_t with_cluster = 0, with_lamp = 0;
+    for (const LinkRecord& l : links)
+      for (const NodeKey& k : {l.p, l.q})
+        if (k.is_cluster()) {
+          ++with_cluster;
+          with_lamp += lamp[k.chart];
+        }
+    std::printf("marked %d: %zu links, %zu cluster ends, %zu holding a lamp\n", int(marked),
+                links.size(), with_cluster, with_lamp);
+    EXPECT_GT(with_cluster, 0u);
+    if (marked)
+      EXPECT_EQ(with_lamp, 0u);
+    else
+      EXPECT_GT(with_lamp, 0u);
+  }
+}
+
+TEST(HierarchicalClusters, OrientedPullSendsTheLightOfTheFacesTurnedToTheReceiver) {
+  // The slab's upper face emits B = 1, its lower face nothing; the squares reflect everything.
+  // The square above sees only the upper face: it receives 1 times its form factor to it (the
+  // analytic value, 1%); the square below sees only the dark face and receives nothing. The
+  // area-average pull sent both 0.5 F.
+  const Slab s = make_slab();
+  Hierarchy h = s.hierarchy({1.0, 0.0, 0.0, 0.0}, {0.0, 0.0, 1.0, 1.0});
+  enable_orientation_slots(h, s.charts);
+  jacobi_pass(h);
+  EXPECT_NEAR(h.b(0, h.chart_first[2]), s.analytic[0], 0.01 * s.analytic[0]);
+  EXPECT_EQ(h.b(0, h.chart_first[3]), 0.0);
 }
 
 TEST(HierarchicalClusters, SameBitsOnOneThreadAndOnMany) {
