@@ -6,8 +6,11 @@
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
+#include <filesystem>
 #include <mutex>
 #include <numeric>
+#include <optional>
 
 #include "cli/cli_common.h"
 #include "core/csv.h"
@@ -16,14 +19,23 @@
 #include "core/output_file.h"
 #include "core/progress.h"
 #include "core/random.h"
+#include "formfactor/matrix/matrix_cache.h"
 
 namespace radlab::cli {
 namespace {
 
 struct SampleOptions {
   size_t rows = 0;
+  bool verify_cache = false;
   uint64_t seed = 0;
 };
+
+// A double in as many digits as tell it from its neighbours.
+std::string exact(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.17g", value);
+  return text;
+}
 
 // `--sample-rows N`: N distinct rows drawn at random (a seeded partial shuffle), computed on the
 // fly in parallel and checked as a build checks every row (diagnostics.h), with the worst rows'
@@ -47,6 +59,28 @@ void check_sampled_rows(const SceneOptions& scene, const FormFactorOptions& ff,
   std::sort(rows.begin(), rows.end());
   std::printf("method       %s (%s)\n", spec.ff_method.c_str(), problem->ff_parameters.c_str());
   std::printf("elements     %zu\n", n);
+  // --verify-cache: the cached matrix of this scene, mesh and method (the cache holds it in
+  // double, as computed), whose sampled rows must be the bits computed here. A matrix merged from
+  // blocks, or built by another process, is checked against this process's own rows.
+  std::optional<FormFactorMatrix> cached;
+  std::string cached_file;
+  if (sample.verify_cache) {
+    const MatrixCache cache(spec.cache_dir.empty() ? default_cache_dir()
+                                                   : std::filesystem::path(spec.cache_dir));
+    const MatrixCacheKey key = matrix_cache_key(problem->mesh, problem->method->name(),
+                                                problem->method->parameters(), Precision::kDouble);
+    cached_file = cache.path(key).string();
+    BuildReport report;
+    cached = cache.load(key, &report);
+    if (!cached)
+      throw InputError(cached_file + ": --verify-cache found no cached matrix of this scene, " +
+                       "mesh and method (missing, or refused as damaged or of another key); " +
+                       "build it first (radlab formfactors, or radlab prepare)");
+  }
+  std::atomic<size_t> differing{0};
+  std::mutex first_mismatch;
+  std::string mismatch;  // the first differing entry in row order
+  uint64_t mismatch_at = ~uint64_t(0);
   FormFactorMatrix sampled(n, Precision::kDouble, Layout::kSparse);
   std::vector<double> sums(count, 0.0);
   std::mutex store;
@@ -61,6 +95,20 @@ void check_sampled_rows(const SceneOptions& scene, const FormFactorOptions& ff,
     RowCost cost;
     problem->method->row(rows[k], row, cost);
     for (double f : row) sums[k] += f;
+    if (cached) {
+      for (size_t j = 0; j < n; ++j) {
+        const double held = cached->at(rows[k], j);
+        if (std::memcmp(&held, &row[j], sizeof(double)) == 0) continue;
+        ++differing;
+        const uint64_t at = uint64_t(rows[k]) * n + j;
+        const std::lock_guard<std::mutex> lock(first_mismatch);
+        if (at < mismatch_at) {
+          mismatch_at = at;
+          mismatch = "row " + std::to_string(rows[k]) + ", column " + std::to_string(j) +
+                     ": cached " + exact(held) + ", computed " + exact(row[j]);
+        }
+      }
+    }
     {
       const std::lock_guard<std::mutex> lock(store);
       sampled.set_row(rows[k], row);
@@ -76,6 +124,15 @@ void check_sampled_rows(const SceneOptions& scene, const FormFactorOptions& ff,
   check.row_sum_max = count ? *std::max_element(sums.begin(), sums.end()) : 0.0;
   std::printf("sampled      %zu of %zu rows (seed %llu), computed in %.3f s\n", count, n,
               static_cast<unsigned long long>(sample.seed), seconds);
+  if (cached && differing > 0)
+    throw InputError(cached_file + ": " + std::to_string(differing.load()) + " of the " +
+                     std::to_string(count * n) + " entries of the sampled rows differ from " +
+                     "the rows computed now, first " + mismatch +
+                     "; the cache holds another matrix than this radlab computes (delete the " +
+                     "file to rebuild it)");
+  if (cached)
+    std::printf("verified     %s: all %zu entries of the sampled rows the same bits\n",
+                cached_file.c_str(), count * n);
   std::string basis;
   stated_row_sum_error(*problem->method, &basis);
   std::printf("stated error %s\n", basis.c_str());
@@ -158,7 +215,13 @@ void add_formfactors_command(CLI::App& app) {
                    "no cache")
       ->check(CLI::PositiveNumber);
   command->add_option("--sample-seed", sample->seed, "seed of the rows --sample-rows draws");
+  command->add_flag("--verify-cache", sample->verify_cache,
+                    "with --sample-rows: compare the sampled rows, bit for bit, with this scene's "
+                    "cached matrix (e.g. one merged from blocks); exit 3 naming the first "
+                    "differing entry, or when the cache holds no such matrix");
   command->callback([scene, ff, out, sample]() {
+    if (sample->verify_cache && sample->rows == 0)
+      throw UsageError("formfactors: --verify-cache compares sampled rows: give --sample-rows N");
     if (sample->rows > 0) {
       if (!out->empty())
         throw UsageError("formfactors: --out writes the whole matrix; drop --sample-rows");
