@@ -7,12 +7,9 @@
 // Run: build/bench/bench_convex_enclosure --benchmark_counters_tabular=true
 #include <benchmark/benchmark.h>
 
-#include <glm/common.hpp>
-#include <glm/geometric.hpp>
-
 #include "bench/bench_clock.h"
 #include "formfactor/visibility/occlusion.h"
-#include "scene/geometry.h"
+#include "tests/formfactor/visibility/convex_by_definition.h"
 
 namespace radlab {
 namespace {
@@ -34,17 +31,7 @@ Scene tessellated_box(int m) {
 }
 
 bool by_definition(const Scene& scene) {
-  Vec3 lo(1e300), hi(-1e300);
-  for (const Polygon& p : scene.polygons)
-    for (const Vec3& v : p.vertices) lo = glm::min(lo, v), hi = glm::max(hi, v);
-  const double eps = 1e-9 * glm::length(hi - lo);
-  for (const Polygon& plane : scene.polygons) {
-    const Vec3 n = geometry::unit_normal(plane.vertices);
-    for (const Polygon& other : scene.polygons)
-      for (const Vec3& v : other.vertices)
-        if (glm::dot(v - plane.vertices[0], n) < -eps) return false;
-  }
-  return true;
+  return convex_by_definition(scene);
 }
 
 template <bool (*Test)(const Scene&)>

@@ -14,23 +14,10 @@ Run (with build/python on PYTHONPATH):
       [--mgf-include-root R]
 """
 import argparse
-import csv
-import sys
 
 import numpy as np
 
 import radlab
-
-
-def read_radiosity(path, size):
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
-    if len(rows) != size:
-        sys.exit(f"{path}: {len(rows)} elements, the scene has {size}")
-    B = np.zeros((size, 3))
-    for row in rows:
-        B[int(row["element"])] = [float(row["B_r"]), float(row["B_g"]), float(row["B_b"])]
-    return B
 
 
 def main():
@@ -41,7 +28,7 @@ def main():
     parser.add_argument("--mgf-include-root", default=None)
     args = parser.parse_args()
     scene = radlab.load(args.scene, subdiv=args.subdiv, mgf_include_root=args.mgf_include_root)
-    B = read_radiosity(args.solution, scene.size).mean(axis=1)
+    B = radlab.read_solution(args.solution, scene.size).mean(axis=1)
     reference = np.asarray(radlab.reference(scene).B).reshape(scene.size, -1).mean(axis=1)
     E = np.asarray(scene.E).mean(axis=1)
     A = np.asarray(scene.areas)

@@ -88,7 +88,7 @@ ColumnTable<TraceCheckpoint> make_trace_table() {
      [](CsvWriter& c, const Row& r) { c.add(r.statistics); }},
     {"seconds_with_setup", "`seconds` plus the set-up the run has depended on so far: once it has read a row of the dense matrix (cached rows), that matrix's build time (the original build's, as the cache recorded it, when loaded from the cache); on two levels, the patch rows' build time. Nothing is added for rows on the fly (computed inside the steps), for hierarchical radiosity (its refinement is in its steps) or for the matrix-free Monte Carlo solvers (their rays are), nor for a matrix built only for the reference. The x-axis that compares a solver needing a matrix with one that does not",
      [](CsvWriter& c, const Row& r) { c.add(r.seconds_with_setup); }, true},
-    {"cpu_seconds", "CPU time so far over the span `seconds` measures (the solver's init and steps; metric evaluation excluded), every thread of the process counted: beside the wall `seconds` it shows how many cores the solver kept busy, and it compares runs made at different loads, where wall time also measures the other work on the machine",
+    {"cpu_seconds", "CPU time so far over the span `seconds` measures (the solver's init and steps, with the runner's budget checks between them; metric evaluation excluded), every thread of the process counted: beside the wall `seconds` it shows how many cores the solver kept busy, and it compares runs made at different loads, where wall time also measures the other work on the machine",
      [](CsvWriter& c, const Row& r) { c.add(r.cpu_seconds); }, true},
   };
   // clang-format on

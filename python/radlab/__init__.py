@@ -28,13 +28,13 @@ from ._radlab import (Error, InputError, NumericalError, ToleranceNotReached, Us
                       __version__)
 from .scene import Scene, load, load_dict
 from .matrices import Reference, errors, form_factors, reference
-from .run import (Experiment, Result, run_experiment, solve, solvers, time_columns,
-                  trace_columns)
+from .run import (Experiment, Result, read_solution, run_experiment, solve, solvers,
+                  time_columns, trace_columns)
 from .solver import Solver, load_plugin, register_solver
 
 __all__ = [
     "Error", "InputError", "NumericalError", "ToleranceNotReached", "UsageError", "__version__",
     "Scene", "load", "load_dict", "Reference", "errors", "form_factors", "reference", "Result", "solve",
-    "Experiment", "run_experiment",
+    "Experiment", "run_experiment", "read_solution",
     "solvers", "trace_columns", "time_columns", "Solver", "register_solver", "load_plugin",
 ]

@@ -55,6 +55,26 @@ class Result:
                 f"{self.rows} rows; rms_rel {self.rms_rel:.3g})")
 
 
+def read_solution(path, size):
+    """A radiosity file as `radlab solve --out` writes it (element,B_r,B_g,B_b): an array of
+    `size` x 3 in element order. InputError when it does not hold each of the scene's `size`
+    elements exactly once."""
+    import csv
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    if len(rows) != size:
+        raise _radlab.InputError(f"{path}: {len(rows)} elements, the scene has {size}")
+    B = np.zeros((size, 3))
+    seen = np.zeros(size, dtype=bool)
+    for row in rows:
+        i = int(row["element"])
+        if not 0 <= i < size or seen[i]:
+            raise _radlab.InputError(f"{path}: element {i} outside 0..{size - 1} or repeated")
+        seen[i] = True
+        B[i] = [float(row["B_r"]), float(row["B_g"]), float(row["B_b"])]
+    return B
+
+
 def _read_trace(path):
     import pandas as pd
     names = [name for name, _, _ in _radlab.trace_columns()]

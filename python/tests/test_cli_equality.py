@@ -49,6 +49,8 @@ def test_python_solve_equals_the_command_line(tmp_path, radlab_binary, scene_spe
     # r.B is the file's numbers (written %.17g, which round-trips a double).
     cli_B = pd.read_csv(cli_out, float_precision="round_trip")[["B_r", "B_g", "B_b"]].to_numpy()
     assert np.array_equal(r.B, cli_B)
+    # radlab.read_solution reads such a file back in element order.
+    assert np.array_equal(radlab.read_solution(cli_out, scene.size), cli_B)
     # r.trace is the file's table, value for value (time columns aside).
     cli = pd.read_csv(cli_trace, float_precision="round_trip", keep_default_na=False,
                       na_values=[""])

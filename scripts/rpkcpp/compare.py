@@ -118,17 +118,6 @@ def metrics(B, reference, E, A):
     return (np.sqrt(squared / np.sum(A * r**2)), np.sqrt(squared / np.sum(A * (r - e) ** 2)))
 
 
-def read_radiosity(path, size):
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
-    if len(rows) != size:
-        sys.exit(f"{path}: {len(rows)} elements, the scene has {size}")
-    B = np.zeros((size, 3))
-    for row in rows:
-        B[int(row["element"])] = [float(row["B_r"]), float(row["B_g"]), float(row["B_b"])]
-    return B
-
-
 def run_rpk(binary, scene, rpk_args, work):
     work = os.path.abspath(work)
     dump = os.path.join(work, "rpk_patches.csv")
@@ -216,7 +205,7 @@ def main():
         print(f"rpkCpp {name:13s}: rms_rel {rms_rel:.6g}  rms_rel_reflected "
               f"{rms_rel_reflected:.6g}  (matched elements)")
     for path in args.radlab_solution:
-        B = read_radiosity(path, scene.size)
+        B = radlab.read_solution(path, scene.size)
         rms_rel, rms_rel_reflected = metrics(B[sel], reference[sel], E[sel], A[sel])
         whole = metrics(B, reference, E, A)
         print(f"radlab {path}: rms_rel {rms_rel:.6g}  rms_rel_reflected {rms_rel_reflected:.6g}"

@@ -6,32 +6,15 @@
 
 #include <algorithm>
 #include <array>
-#include <glm/common.hpp>
-#include <glm/geometric.hpp>
 #include <string>
 #include <vector>
 
 #include "formfactor/visibility/occlusion.h"
 #include "scene/builtin/builtin_scenes.h"
-#include "scene/geometry.h"
+#include "tests/formfactor/visibility/convex_by_definition.h"
 
 namespace radlab {
 namespace {
-
-// The definition, every vertex against every plane (quadratic; the reference here).
-bool convex_by_definition(const Scene& scene, double tolerance = 1e-9) {
-  Vec3 lo(1e300), hi(-1e300);
-  for (const Polygon& p : scene.polygons)
-    for (const Vec3& v : p.vertices) lo = glm::min(lo, v), hi = glm::max(hi, v);
-  const double eps = tolerance * glm::length(hi - lo);
-  for (const Polygon& plane : scene.polygons) {
-    const Vec3 n = geometry::unit_normal(plane.vertices);
-    for (const Polygon& other : scene.polygons)
-      for (const Vec3& v : other.vertices)
-        if (glm::dot(v - plane.vertices[0], n) < -eps) return false;
-  }
-  return true;
-}
 
 // The rectangle o + s u + t v as m x m quads, front side along u x v.
 void add_grid(Scene& scene, const Vec3& o, const Vec3& u, const Vec3& v, int m) {
